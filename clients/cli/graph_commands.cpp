@@ -1,0 +1,248 @@
+// `geoprox build` and `geoprox inspect`: proximity-graph files (issue 3), calling core directly.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "clients/cli/cli.h"
+#include "core/errors.h"
+#include "core/graph_file.h"
+#include "core/intrinsic_geometry.h"
+#include "core/mesh_io.h"
+#include "core/proximity_graph.h"
+
+namespace geoprox::cli {
+
+namespace {
+
+struct BuildArgs {
+  std::string mesh;
+  std::string out;
+  std::uint32_t samples = 0;
+  std::uint32_t neighbors = 0;
+  int threads = 0;
+  std::string sampling = "auto";
+  std::string export_text;
+  bool quiet = false;
+};
+
+struct InspectArgs {
+  std::string file;
+  std::string verify_mesh;
+  bool verify_given = false;
+};
+
+const char* sampling_name(SamplingMethod m) {
+  switch (m) {
+    case SamplingMethod::Automatic:
+      return "auto";
+    case SamplingMethod::FastMarching:
+      return "fmm";
+    case SamplingMethod::Exact:
+      return "exact";
+  }
+  return "?";
+}
+
+std::string human_bytes(double bytes) {
+  char buf[64];
+  if (bytes >= 1 << 20) {
+    std::snprintf(buf, sizeof buf, "%.2f MiB", bytes / (1 << 20));
+  } else {
+    std::snprintf(buf, sizeof buf, "%.1f KiB", bytes / 1024);
+  }
+  return buf;
+}
+
+// Progress on stderr, redrawn in place: phase, percent, elapsed, ETA. Silent unless stderr is a
+// terminal, so logs and pipes stay clean.
+class ProgressLine {
+ public:
+  explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO) != 0) {}
+  ~ProgressLine() { finish(); }
+  void update(const std::string& phase, double fraction) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (phase != phase_) {
+      phase_ = phase;
+      phase_start_ = now;
+    }
+    const double elapsed = std::chrono::duration<double>(now - phase_start_).count();
+    const double eta = fraction > 0.01 ? elapsed * (1 - fraction) / fraction : -1;
+    char buf[160];
+    if (eta >= 0) {
+      std::snprintf(buf, sizeof buf, "\r%-14s %5.1f%%  elapsed %6.1fs  eta %6.1fs ", phase.c_str(),
+                    100 * fraction, elapsed, eta);
+    } else {
+      std::snprintf(buf, sizeof buf, "\r%-14s %5.1f%%  elapsed %6.1fs             ",
+                    phase.c_str(), 100 * fraction, elapsed);
+    }
+    std::fputs(buf, stderr);
+    drawn_ = true;
+  }
+  void finish() {
+    if (drawn_) std::fputs("\n", stderr);
+    drawn_ = false;
+  }
+
+ private:
+  bool enabled_;
+  bool drawn_ = false;
+  std::string phase_;
+  std::chrono::steady_clock::time_point phase_start_;
+};
+
+void run_build(const BuildArgs& args) {
+  ProximityGraphOptions options;
+  options.num_samples = args.samples;
+  options.neighbors = args.neighbors;
+  options.threads = args.threads;
+  if (args.sampling == "fmm") {
+    options.sampling = SamplingMethod::FastMarching;
+  } else if (args.sampling == "exact") {
+    options.sampling = SamplingMethod::Exact;
+  } else {
+    options.sampling = SamplingMethod::Automatic;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const TriangleMesh mesh = load_mesh(args.mesh);
+  const IntrinsicGeometry geometry(mesh);
+  const double load_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  ProximityGraph graph;
+  {
+    ProgressLine progress(!args.quiet);
+    graph = build_proximity_graph(mesh, geometry, options,
+                                  [&](const std::string& phase, double fraction) {
+                                    progress.update(phase, fraction);
+                                  });
+  }
+  const auto write_start = std::chrono::steady_clock::now();
+  GraphFileMetadata metadata;
+  metadata.source_mesh = args.mesh;
+  write_graph_file(args.out, mesh, geometry, graph, metadata);
+  if (!args.export_text.empty()) {
+    std::ostringstream text;
+    export_paper_text(text, mesh, geometry, graph.view());
+    write_file_atomically(args.export_text, text.str());
+  }
+  const double write_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - write_start).count();
+  const double total =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  const ProximityGraphView view = graph.view();
+  std::string out;
+  char line[256];
+  auto add = [&](const char* fmt, auto... values) {
+    std::snprintf(line, sizeof line, fmt, values...);
+    out += line;
+  };
+  add("mesh            %s (%zu vertices, %zu faces)\n", args.mesh.c_str(), mesh.num_vertices(),
+      mesh.num_faces());
+  add("samples         %u (m_P %u, sampling %s)\n", view.num_samples, view.neighbors,
+      sampling_name(graph.stats.sampling_used));
+  add("graph edges     %zu (directed, symmetric)\n", view.num_edges());
+  add("cover entries   %zu\n", view.cover_sample.size());
+  add("R longest edge  %.6g\n", view.longest_edge);
+  add("r covering      %.6g\n", view.covering_radius);
+  add("bound 2r/(R-2r) %.4g\n", view.error_bound());
+  add("time load       %.3f s\n", load_seconds);
+  add("time sampling   %.3f s\n", graph.stats.sampling_seconds);
+  add("time local      %.3f s\n", graph.stats.local_solve_seconds);
+  add("time write      %.3f s\n", write_seconds);
+  add("time total      %.3f s\n", total);
+  std::ifstream size_probe(args.out, std::ios::binary | std::ios::ate);
+  add("file            %s (%s)\n", args.out.c_str(),
+      human_bytes(static_cast<double>(size_probe.tellg())).c_str());
+  write_output(out, "");
+}
+
+void run_inspect(const InspectArgs& args) {
+  const auto start = std::chrono::steady_clock::now();
+  const MappedGraphFile file = MappedGraphFile::open(args.file);
+  const double open_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const GraphFileParams params = file.params();
+  const GraphFileCounts counts = file.counts();
+  const ProximityGraphView view = file.view();
+  std::string out;
+  char line[512];
+  auto add = [&](const char* fmt, auto... values) {
+    std::snprintf(line, sizeof line, fmt, values...);
+    out += line;
+  };
+  add("file            %s (%s, format version %u)\n", args.file.c_str(),
+      human_bytes(static_cast<double>(file.file_size())).c_str(), file.format_version());
+  add("source mesh     %s\n", std::string(file.source_mesh()).c_str());
+  add("mesh            %llu vertices, %llu faces, %llu edges\n",
+      static_cast<unsigned long long>(counts.vertices),
+      static_cast<unsigned long long>(counts.faces), static_cast<unsigned long long>(counts.edges));
+  add("fingerprint     %016llx\n", static_cast<unsigned long long>(file.fingerprint()));
+  add("checksum        %016llx (verified)\n", static_cast<unsigned long long>(file.checksum()));
+  add("samples         %u (m_P %u, sampling %s)\n", params.num_samples, params.neighbors,
+      sampling_name(params.sampling));
+  add("graph edges     %llu\n", static_cast<unsigned long long>(counts.graph_edges));
+  add("cover entries   %llu\n", static_cast<unsigned long long>(counts.covers));
+  add("R longest edge  %.6g\n", file.longest_edge());
+  add("r covering      %.6g\n", file.covering_radius());
+  add("bound 2r/(R-2r) %.4g\n", view.error_bound());
+  std::size_t min_degree = SIZE_MAX, max_degree = 0;
+  for (std::uint32_t i = 0; i < view.num_samples; ++i) {
+    const std::size_t degree = view.edge_offsets[i + 1] - view.edge_offsets[i];
+    min_degree = std::min(min_degree, degree);
+    max_degree = std::max(max_degree, degree);
+  }
+  add("degree          min %zu, mean %.2f, max %zu\n", min_degree,
+      view.num_samples ? static_cast<double>(view.num_edges()) / view.num_samples : 0.0,
+      max_degree);
+  add("open time       %.2f ms\n", open_ms);
+  if (args.verify_given) {
+    const TriangleMesh mesh = load_mesh(args.verify_mesh);
+    const IntrinsicGeometry geometry(mesh);
+    file.verify_mesh(mesh, geometry);
+    add("verify          %s matches\n", args.verify_mesh.c_str());
+  }
+  write_output(out, "");
+}
+
+}  // namespace
+
+void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
+  auto build_args = std::make_shared<BuildArgs>();
+  CLI::App* build = app.add_subcommand(
+      "build", "Build a proximity graph file for MESH (farthest-point samples + exact local "
+               "geodesics); progress on stderr when it is a terminal.");
+  build->add_option("mesh", build_args->mesh, "mesh file (OBJ, OFF, PLY, STL)")->required();
+  build->add_option("-o,--out", build_args->out, "graph file to write (atomically)")->required();
+  build->add_option("--samples", build_args->samples,
+                    "n_P samples (default: the paper's Table 1 for the face count)");
+  build->add_option("--neighbors", build_args->neighbors,
+                    "m_P nearest samples linked to each (default: Table 1)");
+  build->add_option("--threads", build_args->threads, "OpenMP threads (default: all cores)");
+  build->add_option("--sampling", build_args->sampling,
+                    "fmm, exact or auto (exact when the mesh quality is poor)")
+      ->check(CLI::IsMember({"auto", "fmm", "exact"}));
+  build->add_option("--export-text", build_args->export_text,
+                    "also write the paper's text format (§2.2) to this file");
+  build->add_flag("-q,--quiet", build_args->quiet, "no progress display");
+  commands.push_back({build, [build_args] { run_build(*build_args); }});
+
+  auto inspect_args = std::make_shared<InspectArgs>();
+  CLI::App* inspect = app.add_subcommand(
+      "inspect", "Print the header and statistics of a graph file; --verify MESH checks that it "
+                 "was built for that mesh.");
+  inspect->add_option("file", inspect_args->file, "graph file")->required();
+  inspect->add_option("--verify", inspect_args->verify_mesh, "mesh file to check against")
+      ->each([inspect_args](const std::string&) { inspect_args->verify_given = true; });
+  commands.push_back({inspect, [inspect_args] { run_inspect(*inspect_args); }});
+}
+
+}  // namespace geoprox::cli

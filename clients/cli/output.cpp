@@ -1,0 +1,89 @@
+// Output of the `geoprox` tool: standard output, or a file replaced atomically (no paper).
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "clients/cli/cli.h"
+#include "core/errors.h"
+
+namespace geoprox::cli {
+
+void print_diagnostic(const std::string& label, const std::string& message) {
+  std::string line = "geoprox: " + label + ": " + message;
+  for (char& c : line) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  line += '\n';
+  std::fflush(stdout);
+  std::fputs(line.c_str(), stderr);
+  std::fflush(stderr);
+}
+
+void write_output(const std::string& text, const std::string& out_path) {
+  if (!out_path.empty()) {
+    write_file_atomically(out_path, text);
+    return;
+  }
+  if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0) {
+    throw FileError("WriteFailed",
+                    std::string("cannot write to standard output: ") + std::strerror(errno));
+  }
+}
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  if (path.empty() || !target.has_filename()) {
+    throw FileError("WriteFailed", "output path '" + path + "' does not name a file");
+  }
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  const std::string pattern = (dir / ("." + target.filename().string() + ".XXXXXX")).string();
+  std::vector<char> name(pattern.begin(), pattern.end());
+  name.push_back('\0');
+
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) {
+    throw FileError("WriteFailed", "cannot write '" + path +
+                                       "': cannot create a temporary file in '" + dir.string() +
+                                       "': " + std::strerror(errno));
+  }
+  const std::string temporary(name.data());
+  bool is_open = true;
+  auto fail = [&](const std::string& step) {
+    const int err = errno;
+    if (is_open) ::close(fd);
+    ::unlink(temporary.c_str());
+    throw FileError("WriteFailed",
+                    "cannot write '" + path + "': " + step + ": " + std::strerror(err));
+  };
+
+  // mkstemp creates the file 0600; give it the mode a plain open() would have.
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  if (::fchmod(fd, 0666 & ~mask) != 0) fail("chmod");
+
+  const char* data = text.data();
+  std::size_t left = text.size();
+  while (left > 0) {
+    const ssize_t written = ::write(fd, data, left);
+    if (written < 0) {
+      if (errno == EINTR) continue;
+      fail("write");
+    }
+    data += written;
+    left -= static_cast<std::size_t>(written);
+  }
+  if (::fsync(fd) != 0) fail("fsync");
+  is_open = false;
+  if (::close(fd) != 0) fail("close");
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) fail("rename");
+}
+
+}  // namespace geoprox::cli

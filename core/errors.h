@@ -1,0 +1,66 @@
+// Typed errors of geoprox (no paper: the project's one error header).
+//
+// Every error thrown for bad input derives from geoprox::Error and carries a stable CamelCase
+// reason (FaceOutOfRange, BadBarycentric, NonManifold, ...) that the protocol layer forwards to
+// clients as `data.reason`, plus a concrete human-readable message.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace geoprox {
+
+class Error : public std::runtime_error {
+ public:
+  Error(std::string reason, const std::string& message)
+      : std::runtime_error(message), reason_(std::move(reason)) {}
+  /// Stable CamelCase identifier of the failure, e.g. "FaceOutOfRange".
+  const std::string& reason() const noexcept { return reason_; }
+
+ private:
+  std::string reason_;
+};
+
+/// A caller-supplied value is invalid (point ids, barycentrics, options, NaN).
+class InvalidInput : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A mesh is unusable: empty, non-finite coordinates, non-manifold, bad edge lengths.
+class MeshError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A file cannot be read, parsed or written.
+class FileError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// Two points lie in different connected components (or beyond a solve's reach).
+class Unreachable : public Error {
+ public:
+  using Error::Error;
+};
+
+/// An internal invariant failed: a bug in geoprox, never the caller's fault.
+class InternalError : public Error {
+ public:
+  explicit InternalError(const std::string& message) : Error("InternalError", message) {}
+};
+
+[[noreturn]] void throw_internal_error(const char* condition, const char* file, int line,
+                                       const std::string& detail);
+
+}  // namespace geoprox
+
+/// Checks an internal invariant; on failure throws InternalError naming file and line, so that a
+/// server can turn it into an error reply instead of dying.
+#define GEOPROX_ASSERT(condition, detail)                                        \
+  do {                                                                           \
+    if (!(condition)) {                                                          \
+      ::geoprox::throw_internal_error(#condition, __FILE__, __LINE__, (detail)); \
+    }                                                                            \
+  } while (false)

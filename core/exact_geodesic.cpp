@@ -1,0 +1,1192 @@
+#include "core/exact_geodesic.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "core/errors.h"
+
+namespace geoprox {
+
+namespace {
+
+// Relative slack of the pruning tests: a window is dropped only when an alternative path is
+// shorter by more than this fraction of the distances involved, so near-ties never lose the
+// shortest path to rounding.
+constexpr double kPruneSlack = 1e-12;
+// A point this close (relative to the edge length) to a window's end counts as inside it.
+// Windows reaching an edge from different parents agree on their common end only to rounding,
+// which caps and needles amplify; a vertex in such a hairline gap must still be reached. Taking
+// a point up to this far outside costs a distance error of order slack^2 (negligible).
+constexpr double kVisibilitySlack = 1e-6;
+constexpr std::uint32_t kVertexItem = 0x80000000u;
+// vertex_via_vertex_ codes besides a neighbour id.
+constexpr std::int32_t kViaNone = -1;
+constexpr std::int32_t kViaSourceVertex = -2;
+// kViaSeedBase - i: reached straight from seed i (a source inside one of v's faces).
+constexpr std::int32_t kViaSeedBase = -3;
+
+double cross2(double ax, double ay, double bx, double by) { return ax * by - ay * bx; }
+// Plain Euclidean length: std::hypot's overflow care costs a fifth of a solve and mesh
+// coordinates are nowhere near overflow.
+inline double length2(double x, double y) { return std::sqrt(x * x + y * y); }
+
+// Coordinates of point p (given in the frame of face f, i.e. of halfedge 3f) in the frame of
+// halfedge 3f + i.
+Vec2 face_to_halfedge_frame(const IntrinsicGeometry& g, std::uint32_t f, int i, Vec2 p) {
+  const Vec2 origin = g.face_corner(f, i);
+  const Vec2 to = g.face_corner(f, (i + 1) % 3);
+  const double len = g.layout(3 * f + static_cast<std::uint32_t>(i)).length;
+  if (i == 0) return p;
+  const double ex = (to.x - origin.x) / len, ey = (to.y - origin.y) / len;
+  const double dx = p.x - origin.x, dy = p.y - origin.y;
+  return {dx * ex + dy * ey, cross2(ex, ey, dx, dy)};
+}
+
+}  // namespace
+
+struct ExactGeodesicSolver::Candidate {
+  enum class Kind { None, Vertex, Window, Seed } kind = Kind::None;
+  double distance = kInfinity;
+  std::int32_t index = -1;  // vertex id, window index or seed index
+  Vec2 point_in_frame{};    // the query point in the window's halfedge frame (Kind::Window)
+};
+
+ExactGeodesicSolver::ExactGeodesicSolver(const TriangleMesh& mesh,
+                                         const IntrinsicGeometry& geometry)
+    : mesh_(&mesh), geometry_(&geometry) {
+  GEOPROX_ASSERT(&geometry.mesh() == &mesh, "geometry was built for another mesh");
+  const std::size_t nv = mesh.num_vertices(), nf = mesh.num_faces();
+  vertex_stamp_.assign(nv, 0);
+  vertex_distance_.assign(nv, kInfinity);
+  vertex_via_window_.assign(nv, -1);
+  vertex_via_vertex_.assign(nv, kViaNone);
+  vertex_source_.assign(nv, 0);
+  vertex_emitted_.assign(nv, 0);
+  vertex_target_stamp_.assign(nv, 0);
+  vertex_first_target_.assign(nv, -1);
+  halfedge_stamp_.assign(3 * nf, 0);
+  halfedge_first_window_.assign(3 * nf, -1);
+  face_stamp_.assign(nf, 0);
+  face_first_target_.assign(nf, -1);
+  face_first_seed_.assign(nf, -1);
+}
+
+void ExactGeodesicSolver::reset() {
+  ++generation_;
+  if (generation_ == 0) {  // wrapped: clear the stamps once every 2^32 solves
+    std::fill(vertex_stamp_.begin(), vertex_stamp_.end(), 0);
+    std::fill(vertex_target_stamp_.begin(), vertex_target_stamp_.end(), 0);
+    std::fill(halfedge_stamp_.begin(), halfedge_stamp_.end(), 0);
+    std::fill(face_stamp_.begin(), face_stamp_.end(), 0);
+    generation_ = 1;
+  }
+  windows_.clear();
+  queue_.clear();
+  seeds_.clear();
+  sources_.clear();
+  targets_.clear();
+  target_queue_.clear();
+  settled_targets_.clear();
+  settled_distances_.clear();
+  touched_vertices_.clear();
+  face_targets_ = 0;
+  radius_reached_ = kInfinity;
+  stats_ = {};
+}
+
+void ExactGeodesicSolver::touch_face(std::uint32_t f) {
+  if (face_stamp_[f] != generation_) {
+    face_stamp_[f] = generation_;
+    face_first_target_[f] = -1;
+    face_first_seed_[f] = -1;
+  }
+}
+
+void ExactGeodesicSolver::push(double key, std::uint32_t item) {
+  // A 4-ary min-heap: half the depth of a binary one, and the four children of a node share a
+  // cache line, which matters with millions of pushes and pops per solve.
+  std::size_t i = queue_.size();
+  queue_.push_back({key, item});
+  while (i > 0) {
+    const std::size_t parent = (i - 1) / 4;
+    if (!(key < queue_[parent].key)) break;
+    queue_[i] = queue_[parent];
+    i = parent;
+  }
+  queue_[i] = {key, item};
+  stats_.peak_queue = std::max(stats_.peak_queue, queue_.size());
+}
+
+void ExactGeodesicSolver::pop() {
+  const QueueEntry last = queue_.back();
+  queue_.pop_back();
+  const std::size_t n = queue_.size();
+  if (n == 0) return;
+  std::size_t i = 0;
+  while (true) {
+    const std::size_t first = 4 * i + 1;
+    if (first >= n) break;
+    std::size_t best = first;
+    const std::size_t end = std::min(first + 4, n);
+    for (std::size_t c = first + 1; c < end; ++c) {
+      if (queue_[c].key < queue_[best].key) best = c;
+    }
+    if (!(queue_[best].key < last.key)) break;
+    queue_[i] = queue_[best];
+    i = best;
+  }
+  queue_[i] = last;
+}
+
+void ExactGeodesicSolver::relax_vertex(std::uint32_t v, double distance, std::int32_t via_window,
+                                       std::int32_t via_vertex, std::uint32_t source_index) {
+  if (vertex_stamp_[v] != generation_) {
+    vertex_stamp_[v] = generation_;
+    touched_vertices_.push_back(v);
+    vertex_distance_[v] = kInfinity;
+    vertex_emitted_[v] = 0;
+  }
+  if (!(distance < vertex_distance_[v])) return;
+  vertex_distance_[v] = distance;
+  vertex_via_window_[v] = via_window;
+  vertex_via_vertex_[v] = via_vertex;
+  vertex_source_[v] = source_index;
+  if (!vertex_emitted_[v] &&
+      (geometry_->is_pseudo_source(v) || via_vertex == kViaSourceVertex)) {
+    push(distance, kVertexItem | v);
+  }
+  if (!targets_.empty()) update_targets_at_vertex(v);
+}
+
+void ExactGeodesicSolver::solve(const SurfacePoint& source, const Options& options) {
+  const GeodesicSource one{source, 0.0};
+  solve(std::span<const GeodesicSource>(&one, 1), {}, options);
+}
+
+void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
+                                std::span<const SurfacePoint> targets, const Options& options) {
+  for (const GeodesicSource& s : sources) {
+    s.point.validate(*mesh_);
+    if (!std::isfinite(s.offset) || s.offset < 0) {
+      throw InvalidInput("BadOffset", "source offset " + std::to_string(s.offset) +
+                                          " must be finite and non-negative");
+    }
+  }
+  for (const SurfacePoint& t : targets) t.validate(*mesh_);
+  if (std::isnan(options.max_distance) || options.max_distance < 0) {
+    throw InvalidInput("BadRadius", "max_distance must be a non-negative number");
+  }
+  reset();
+  sources_.assign(sources.begin(), sources.end());
+
+  // Register targets before seeding so that seeds already update their estimates.
+  for (std::uint32_t i = 0; i < targets.size(); ++i) add_target(i, targets[i]);
+  targets_wanted_ = options.stop_after_targets == 0
+                        ? targets_.size()
+                        : std::min(options.stop_after_targets, targets_.size());
+
+  for (std::uint32_t i = 0; i < sources.size(); ++i) add_source(i, sources[i]);
+
+  bool stopped = false;
+  while (!queue_.empty()) {
+    const QueueEntry top = queue_.front();
+    if (!targets_.empty()) {
+      settle_targets_up_to(top.key);
+      if (settled_targets_.size() >= targets_wanted_) {
+        radius_reached_ = top.key;
+        stopped = true;
+        break;
+      }
+    }
+    if (top.key > options.max_distance) {
+      radius_reached_ = options.max_distance;
+      stopped = true;
+      break;
+    }
+    pop();
+    if (top.item & kVertexItem) {
+      const std::uint32_t v = top.item & ~kVertexItem;
+      if (vertex_emitted_[v] || top.key != vertex_distance_[v]) continue;
+      emit_pseudo_source(v);
+    } else {
+      propagate(top.item, top.key);
+    }
+  }
+  if (!stopped && !targets_.empty()) settle_targets_up_to(kInfinity);
+  for (std::uint32_t v : touched_vertices_) {
+    if (vertex_distance_[v] <= radius_reached_) ++stats_.vertices_reached;
+  }
+  // Targets are settled in order of their estimates; keep only as many as asked for.
+  if (settled_targets_.size() > targets_wanted_) {
+    settled_targets_.resize(targets_wanted_);
+    settled_distances_.resize(targets_wanted_);
+  }
+}
+
+void ExactGeodesicSolver::add_source(std::uint32_t index, const GeodesicSource& source) {
+  const SurfacePoint& p = source.point;
+  if (p.kind == SurfacePoint::Kind::Vertex) {
+    relax_vertex(p.id, source.offset, -1, kViaSourceVertex, index);
+    return;
+  }
+  auto [face, bary] = p.in_face(*mesh_);
+  for (int i = 0; i < 3; ++i) {
+    if (bary[i] >= 1) {
+      relax_vertex(mesh_->face(face)[i], source.offset, -1, kViaSourceVertex, index);
+      return;
+    }
+  }
+  seed_face_point(index, source.offset, face, bary);
+  // A point on an edge is also a point of the face across it.
+  for (int i = 0; i < 3; ++i) {
+    if (bary[(i + 2) % 3] > 0) continue;
+    const std::int32_t t = mesh_->twin(3 * face + static_cast<std::uint32_t>(i));
+    if (t < 0) continue;
+    const auto h = static_cast<std::uint32_t>(t);
+    std::array<double, 3> across{0, 0, 0};
+    across[h % 3] = bary[(i + 1) % 3];
+    across[(h % 3 + 1) % 3] = bary[i];
+    seed_face_point(index, source.offset, TriangleMesh::face_of(h), across);
+  }
+}
+
+void ExactGeodesicSolver::seed_face_point(std::uint32_t source_index, double offset,
+                                          std::uint32_t face, const std::array<double, 3>& bary) {
+  const IntrinsicGeometry& g = *geometry_;
+  const Vec2 p = g.face_point(face, bary.data());
+  touch_face(face);
+  const auto seed_index = static_cast<std::int32_t>(seeds_.size());
+  seeds_.push_back({face, p, offset, source_index, face_first_seed_[face]});
+  face_first_seed_[face] = seed_index;
+  for (int i = 0; i < 3; ++i) {
+    const Vec2 corner = g.face_corner(face, i);
+    relax_vertex(mesh_->face(face)[i], offset + length2(p.x - corner.x, p.y - corner.y), -1,
+                 kViaSeedBase - seed_index, source_index);
+  }
+  if (!targets_.empty()) update_targets_in_face(face);
+  for (int i = 0; i < 3; ++i) {
+    const std::uint32_t h = 3 * face + static_cast<std::uint32_t>(i);
+    if (bary[(i + 2) % 3] <= 0) continue;  // the point is on this edge: no window across it
+    const std::int32_t t = mesh_->twin(h);
+    if (t < 0) continue;
+    const HalfedgeLayout& lay = g.layout(h);
+    if (lay.length <= 0) continue;
+    const Vec2 ph = face_to_halfedge_frame(g, face, i, p);
+    // In the twin's frame (origin at h's target, x towards h's origin) the point lies below.
+    create_window(static_cast<std::uint32_t>(t), 0, lay.length, {lay.length - ph.x, -ph.y},
+                  offset, -1, -1, seed_index, source_index);
+  }
+}
+
+double ExactGeodesicSolver::incoming_angle(std::uint32_t v, std::uint32_t& fan_start) const {
+  // Angular coordinate around interior vertex v (0 at the halfedge fan_start, counter-clockwise,
+  // up to angle_sum(v)) of the direction in which its shortest path arrives, pointing back to
+  // the source; NaN when unknown (then v emits in every direction).
+  const IntrinsicGeometry& g = *geometry_;
+  constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
+  const std::int32_t via_vertex = vertex_via_vertex_[v];
+  const std::int32_t via_window = vertex_via_window_[v];
+  std::uint32_t corner_halfedge;  // outgoing halfedge of v starting the corner holding it
+  double angle_in_corner;
+  if (via_vertex >= 0) {
+    corner_halfedge = UINT32_MAX;
+    for (std::uint32_t h : mesh_->outgoing_halfedges(v)) {
+      if (mesh_->target(h) == static_cast<std::uint32_t>(via_vertex)) corner_halfedge = h;
+    }
+    if (corner_halfedge == UINT32_MAX) return kUnknown;
+    angle_in_corner = 0;
+  } else if (via_window >= 0) {
+    const Window& w = windows_[static_cast<std::size_t>(via_window)];
+    if (mesh_->opposite_vertex(w.halfedge) != v) return kUnknown;
+    const HalfedgeLayout& lay = g.layout(w.halfedge);
+    corner_halfedge = TriangleMesh::prev(w.halfedge);  // c -> a
+    const double ax = -lay.cx, ay = -lay.cy, qx = w.sx - lay.cx, qy = w.sy - lay.cy;
+    angle_in_corner = std::atan2(cross2(ax, ay, qx, qy), ax * qx + ay * qy);
+    const HalfedgeLayout& corner = g.layout(corner_halfedge);
+    angle_in_corner = std::clamp(angle_in_corner, 0.0, std::atan2(corner.cy, corner.cx));
+  } else if (via_vertex <= kViaSeedBase) {
+    const Seed& seed = seeds_[static_cast<std::size_t>(kViaSeedBase - via_vertex)];
+    int corner = 0;
+    while (mesh_->face(seed.face)[corner] != v) ++corner;
+    corner_halfedge = 3 * seed.face + static_cast<std::uint32_t>(corner);
+    const Vec2 c = geometry_->face_corner(seed.face, corner);
+    const Vec2 n = geometry_->face_corner(seed.face, (corner + 1) % 3);
+    const double ax = n.x - c.x, ay = n.y - c.y, qx = seed.point.x - c.x, qy = seed.point.y - c.y;
+    angle_in_corner = std::max(0.0, std::atan2(cross2(ax, ay, qx, qy), ax * qx + ay * qy));
+  } else {
+    return kUnknown;
+  }
+  fan_start = corner_halfedge;
+  return angle_in_corner;
+}
+
+void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
+  vertex_emitted_[v] = 1;
+  const double d = vertex_distance_[v];
+  const std::uint32_t source_index = vertex_source_[v];
+  const IntrinsicGeometry& g = *geometry_;
+  for (std::uint32_t h : mesh_->outgoing_halfedges(v)) {
+    const std::uint32_t prev = TriangleMesh::prev(h);
+    relax_vertex(mesh_->target(h), d + g.layout(h).length, -1, static_cast<std::int32_t>(v),
+                 source_index);
+    relax_vertex(mesh_->origin(prev), d + g.layout(prev).length, -1,
+                 static_cast<std::int32_t>(v), source_index);
+  }
+
+  // A shortest path bends at a saddle only into its shadow: the directions at least pi away
+  // from the incoming direction on both sides. Everything else is reached straight past v by
+  // the windows that reached v, so v emits windows only into the shadow.
+  std::uint32_t fan_start = 0;
+  const bool interior = !mesh_->is_boundary_vertex(v) && vertex_via_vertex_[v] != kViaSourceVertex &&
+                        !g.is_degenerate_vertex(v);
+  const double incoming = interior ? incoming_angle(v, fan_start) : std::nan("");
+  if (std::isnan(incoming)) {
+    for (std::uint32_t h : mesh_->outgoing_halfedges(v)) emit_into_corner(v, h, 0, kInfinity);
+    return;
+  }
+  constexpr double kPi = 3.14159265358979323846;
+  constexpr double kAngleSlack = 1e-9;
+  const double total = g.angle_sum(v);
+  const double shadow_begin = incoming + kPi - kAngleSlack;
+  const double shadow_end = incoming + total - kPi + kAngleSlack;
+  if (shadow_end < shadow_begin) return;
+  double phi = 0;
+  std::uint32_t h = fan_start;
+  do {
+    const HalfedgeLayout& lay = g.layout(h);
+    const double corner = std::atan2(lay.cy, lay.cx);
+    // The corner spans [phi, phi + corner]; the shadow may wrap once around the vertex.
+    for (double shift : {0.0, total}) {
+      const double lo = std::max(phi, shadow_begin - shift);
+      const double hi = std::min(phi + corner, shadow_end - shift);
+      if (lo <= hi) emit_into_corner(v, h, lo - phi, hi - phi);
+    }
+    phi += corner;
+    const std::int32_t t = mesh_->twin(TriangleMesh::prev(h));
+    GEOPROX_ASSERT(t >= 0, "interior vertex fan is open");
+    h = static_cast<std::uint32_t>(t);
+  } while (h != fan_start);
+}
+
+void ExactGeodesicSolver::emit_into_corner(std::uint32_t v, std::uint32_t h, double angle_begin,
+                                           double angle_end) {
+  // Face of h = v -> a, with third corner b; the window goes on the far side of edge a -> b,
+  // covering the rays from v at angles [angle_begin, angle_end] from v -> a towards v -> b.
+  const IntrinsicGeometry& g = *geometry_;
+  const std::uint32_t opposite = TriangleMesh::next(h);  // a -> b
+  const std::int32_t t = mesh_->twin(opposite);
+  if (t < 0) return;
+  const HalfedgeLayout& lay = g.layout(opposite);  // a = (0,0), b = (L,0), v = (cx, cy)
+  const double L = lay.length;
+  if (L <= 0) return;
+  double x0 = 0, x1 = L;
+  if (angle_begin > 0 || angle_end < kInfinity) {
+    const double ax = -lay.cx, ay = -lay.cy;
+    const double alen = length2(ax, ay);
+    auto hit = [&](double angle) {
+      const double c = std::cos(angle), s = std::sin(angle);
+      const double dx = (ax * c - ay * s) / alen, dy = (ax * s + ay * c) / alen;
+      if (dy >= 0) return angle <= 0 ? 0.0 : L;
+      return std::clamp(lay.cx + (-lay.cy / dy) * dx, 0.0, L);
+    };
+    x0 = angle_begin > 0 ? hit(angle_begin) : 0.0;
+    x1 = angle_end < kInfinity ? hit(angle_end) : L;
+    if (x1 < x0) std::swap(x0, x1);
+  }
+  create_window(static_cast<std::uint32_t>(t), L - x1, L - x0, {L - lay.cx, -lay.cy},
+                vertex_distance_[v], -1, static_cast<std::int32_t>(v), -1, vertex_source_[v]);
+}
+
+bool ExactGeodesicSolver::trim_window(Window& w) const {
+  const std::uint32_t h = w.halfedge;
+  const HalfedgeLayout& lay = geometry_->layout(h);
+  const double L = lay.length;
+  const double scale = w.sigma + std::abs(w.sx) + std::abs(w.sy) + L;
+  const double slack = kPruneSlack * scale;
+
+  // Through vertex a (x = 0): D(x) - x is non-increasing, so a dominates a prefix [b0, x*].
+  const double da = vertex_estimate(mesh_->origin(h));
+  if (da < kInfinity) {
+    if (w.distance_at(w.b1) - w.b1 > da + slack) return false;
+    if (w.distance_at(w.b0) - w.b0 > da + slack) {
+      const double k = da + slack - w.sigma;
+      const double denom = 2 * (k + w.sx);
+      if (denom > 0) {
+        const double x = (w.sx * w.sx + w.sy * w.sy - k * k) / denom;
+        w.b0 = std::clamp(x, w.b0, w.b1);
+      }
+    }
+  }
+  // Through vertex b (x = L): D(x) - (L - x) is non-decreasing: b dominates a suffix.
+  const double db = vertex_estimate(mesh_->target(h));
+  if (db < kInfinity) {
+    if (w.distance_at(w.b0) - (L - w.b0) > db + slack) return false;
+    if (w.distance_at(w.b1) - (L - w.b1) > db + slack) {
+      const double k = db + slack - w.sigma + L;
+      const double denom = 2 * (k - w.sx);
+      if (denom > 0) {
+        const double x = (k * k - w.sx * w.sx - w.sy * w.sy) / denom;
+        w.b1 = std::clamp(x, w.b0, w.b1);
+      }
+    }
+  }
+  if (!(w.b1 > w.b0) && !(w.b1 == w.b0 && L == 0)) {
+    if (w.b1 < w.b0) return false;
+  }
+  // Through the opposite vertex c of the face the window enters.
+  const double dc = vertex_estimate(mesh_->opposite_vertex(h));
+  if (dc < kInfinity) {
+    const double c0 = length2(lay.cx - w.b0, lay.cy);
+    const double c1 = length2(lay.cx - w.b1, lay.cy);
+    const double d0 = w.distance_at(w.b0), d1 = w.distance_at(w.b1);
+    if (dc >= w.sigma) {
+      // {q : |Sq| - |cq| > dc - sigma} is convex when dc >= sigma (inside a hyperbola branch).
+      if (d0 > dc + c0 + slack && d1 > dc + c1 + slack) return false;
+    } else {
+      double lowest = std::min(d0, d1);
+      if (w.sx > w.b0 && w.sx < w.b1) lowest = w.sigma - w.sy;
+      if (lowest > dc + std::max(c0, c1) + slack) return false;
+    }
+  }
+  return true;
+}
+
+double ExactGeodesicSolver::window_key(const Window& w) {
+  if (w.sx < w.b0) return w.sigma + length2(w.b0 - w.sx, w.sy);
+  if (w.sx > w.b1) return w.sigma + length2(w.sx - w.b1, w.sy);
+  return w.sigma - w.sy;
+}
+
+namespace {
+
+// Distance along an edge through one window, in the frame of one halfedge of that edge:
+// sigma + sqrt((x - a)^2 + hsq) for x in [lo, hi].
+struct EdgeDistance {
+  double a, hsq, sigma, lo, hi;
+  double at(double x) const { return sigma + std::sqrt((x - a) * (x - a) + hsq); }
+};
+
+// Up to two x where f(x) = g(x), from squaring the equation twice; spurious roots of the squared
+// equation are harmless because callers only use them to cut [lo, hi] into pieces of constant
+// sign and test each piece at its midpoint.
+int crossings(const EdgeDistance& f, const EdgeDistance& g, double origin, double roots[2]) {
+  // Work relative to `origin` (inside the overlap) to keep the squared terms small.
+  const double fa = f.a - origin, ga = g.a - origin;
+  const double delta = g.sigma - f.sigma;
+  const double p = 2 * (ga - fa);
+  const double r = fa * fa + f.hsq - ga * ga - g.hsq - delta * delta;
+  const double d2 = 4 * delta * delta;
+  const double qa = p * p - d2;
+  const double qb = 2 * p * r + 2 * d2 * ga;
+  const double qc = r * r - d2 * (ga * ga + g.hsq);
+  const double scale = std::abs(qa) + std::abs(qb) + std::abs(qc);
+  if (scale == 0) return 0;
+  int n = 0;
+  if (std::abs(qa) <= 1e-14 * scale) {
+    if (qb == 0) return 0;
+    roots[n++] = -qc / qb;
+  } else {
+    const double disc = qb * qb - 4 * qa * qc;
+    // A slightly negative discriminant is a rounded double root: keep it as a cut.
+    const double sq = disc > 0 ? std::sqrt(disc) : 0.0;
+    const double q = -0.5 * (qb + (qb >= 0 ? sq : -sq));
+    roots[n++] = q / qa;
+    if (q != 0) roots[n++] = qc / q;
+  }
+  for (int i = 0; i < n; ++i) roots[i] += origin;
+  return n;
+}
+
+// Compares two windows' distances over the overlap of their intervals and shrinks each one to
+// drop a prefix and/or suffix where the other is shorter by more than `slack` (a stretch in the
+// middle stays: a window is one interval). Sets mine_alive / theirs_alive to false when nothing
+// of that window is left.
+void trim_pair(EdgeDistance& mine, EdgeDistance& theirs, double slack, bool& mine_alive,
+               bool& theirs_alive) {
+  mine_alive = theirs_alive = true;
+  const double lo = std::max(mine.lo, theirs.lo), hi = std::min(mine.hi, theirs.hi);
+  if (!(hi > lo)) return;
+  double cuts[4] = {lo, 0, 0, 0};
+  int n = 1;
+  double roots[2];
+  const int nr = crossings(mine, theirs, 0.5 * (lo + hi), roots);
+  for (int i = 0; i < nr; ++i) {
+    if (roots[i] > lo && roots[i] < hi) cuts[n++] = roots[i];
+  }
+  if (n == 3 && cuts[1] > cuts[2]) std::swap(cuts[1], cuts[2]);
+  cuts[n++] = hi;
+  const int pieces = n - 1;
+  // Between consecutive crossings the sign of the difference is constant: test the middle.
+  int winner[3];  // +1: theirs shorter there, -1: mine shorter, 0: tie within slack
+  for (int i = 0; i < pieces; ++i) {
+    const double mid = 0.5 * (cuts[i] + cuts[i + 1]);
+    const double dm = mine.at(mid), dt = theirs.at(mid);
+    winner[i] = dt + slack < dm ? 1 : (dm + slack < dt ? -1 : 0);
+  }
+  auto shrink = [&](EdgeDistance& w, int loser_sign, bool& alive) {
+    double new_lo = w.lo, new_hi = w.hi;
+    if (lo <= w.lo) {
+      for (int i = 0; i < pieces && winner[i] == loser_sign; ++i) new_lo = cuts[i + 1];
+    }
+    if (hi >= w.hi) {
+      for (int i = pieces - 1; i >= 0 && winner[i] == loser_sign; --i) new_hi = cuts[i];
+    }
+    if (new_lo >= new_hi) {
+      alive = false;
+      return;
+    }
+    w.lo = new_lo;
+    w.hi = new_hi;
+  };
+  shrink(mine, 1, mine_alive);
+  shrink(theirs, -1, theirs_alive);
+}
+
+}  // namespace
+
+bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
+  // Windows on the same edge (either direction) reach the same edge points; where another is
+  // strictly shorter, every path through this one could be shortened by switching to it.
+  const std::uint32_t h = w.halfedge;
+  const double L = geometry_->layout(h).length;
+  EdgeDistance mine{w.sx, w.sy * w.sy, w.sigma, w.b0, w.b1};
+  const double slack = kPruneSlack * (w.sigma + std::abs(w.sx) + std::abs(w.sy) + L);
+  const std::int32_t twin = mesh_->twin(h);
+  bool alive = true;
+  for (int side = 0; side < 2 && alive; ++side) {
+    if (side == 1 && twin < 0) break;
+    const std::uint32_t list = side == 0 ? h : static_cast<std::uint32_t>(twin);
+    for_each_live_window(list, [&](std::int32_t, Window& o) {
+      if (!alive) return;
+      EdgeDistance theirs = side == 0
+                                ? EdgeDistance{o.sx, o.sy * o.sy, o.sigma, o.b0, o.b1}
+                                : EdgeDistance{L - o.sx, o.sy * o.sy, o.sigma, L - o.b1, L - o.b0};
+      const EdgeDistance theirs_before = theirs;
+      bool mine_alive, theirs_alive;
+      trim_pair(mine, theirs, slack, mine_alive, theirs_alive);
+      if (!mine_alive) {
+        alive = false;
+        return;
+      }
+      if (o.propagated) return;  // already unfolded: it keeps what it covered
+      // The new window may also cut an ending off a window still waiting in the queue.
+      if (!theirs_alive) {
+        o.key = kInfinity;
+        ++stats_.windows_pruned;
+      } else if (theirs.lo != theirs_before.lo || theirs.hi != theirs_before.hi) {
+        if (side == 0) {
+          o.b0 = theirs.lo;
+          o.b1 = theirs.hi;
+        } else {
+          o.b0 = L - theirs.hi;
+          o.b1 = L - theirs.lo;
+        }
+      }
+    });
+  }
+  if (!alive) return false;
+  w.b0 = mine.lo;
+  w.b1 = mine.hi;
+  return true;
+}
+
+void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, double b1,
+                                        Vec2 source, double sigma, std::int32_t parent,
+                                        std::int32_t origin, std::int32_t seed,
+                                        std::uint32_t source_index) {
+  const double L = geometry_->layout(halfedge).length;
+  b0 = std::clamp(b0, 0.0, L);
+  b1 = std::clamp(b1, 0.0, L);
+  if (!(b1 >= b0)) return;
+  // The source must lie behind the edge. One on the edge's line (a vertex on the far side of a
+  // zero-area face) still sees the whole face ahead if it lies within the interval; one on the
+  // line outside it only grazes the edge, and the points of the edge itself are reached through
+  // its end vertices.
+  if (!(source.y < -1e-12 * (L + std::abs(source.x)))) {
+    const double slack = kVisibilitySlack * L;
+    if (!(source.x >= b0 - slack && source.x <= b1 + slack)) {
+      ++stats_.windows_pruned;
+      return;
+    }
+    source.y = 0;
+  }
+  Window w{b0,     b1,     source.x, source.y,     sigma, 0,    halfedge,
+           parent, origin, seed,     source_index, -1,    false};
+  if (!trim_window(w) || !trim_against_edge_windows(w)) {
+    ++stats_.windows_pruned;
+    return;
+  }
+  w.key = window_key(w);
+  if (halfedge_stamp_[halfedge] != generation_) {
+    halfedge_stamp_[halfedge] = generation_;
+    halfedge_first_window_[halfedge] = -1;
+  }
+  const auto index = static_cast<std::uint32_t>(windows_.size());
+  w.next_on_halfedge = halfedge_first_window_[halfedge];
+  halfedge_first_window_[halfedge] = static_cast<std::int32_t>(index);
+  windows_.push_back(w);
+  ++stats_.windows_created;
+  if (parent < 0) ++stats_.pseudo_source_windows;
+  push(w.key, index);
+  if (!targets_.empty()) update_targets_in_face(TriangleMesh::face_of(halfedge));
+}
+
+void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
+  Window w = windows_[index];
+  if (w.key != popped_key) return;  // dropped or re-queued since
+  if (!trim_window(w)) {
+    windows_[index].key = kInfinity;
+    ++stats_.windows_pruned;
+    return;
+  }
+  const double key = window_key(w);
+  windows_[index].b0 = w.b0;
+  windows_[index].b1 = w.b1;
+  if (key > popped_key) {  // trimming moved its nearest point away: process it later
+    windows_[index].key = key;
+    push(key, index);
+    return;
+  }
+  ++stats_.windows_propagated;
+  windows_[index].propagated = true;
+
+  const IntrinsicGeometry& g = *geometry_;
+  const std::uint32_t h = w.halfedge;
+  const HalfedgeLayout& lay = g.layout(h);
+  const double L = lay.length, cx = lay.cx, cy = lay.cy;
+  const double sx = w.sx, sy = w.sy;
+  const auto self = static_cast<std::int32_t>(index);
+  const double end_slack = kVisibilitySlack * L;
+
+  // The window may reach its own end vertices.
+  if (w.b0 <= end_slack) {
+    relax_vertex(mesh_->origin(h), w.distance_at(0), self, kViaNone, w.source_index);
+  }
+  if (w.b1 >= L - end_slack) {
+    relax_vertex(mesh_->target(h), w.distance_at(L), self, kViaNone, w.source_index);
+  }
+
+  if (!(cy - sy > 0)) {
+    // Source on the line of a zero-area face: only its far corner is reached, straight along
+    // the line; the neighbours continue from the face's corners (pseudo-sources).
+    relax_vertex(mesh_->opposite_vertex(h), w.sigma + length2(cx - sx, cy - sy), self, kViaNone,
+                 w.source_index);
+    return;
+  }
+  // Where the ray from S through the opposite corner c crosses the edge line.
+  const double xc = sx + (cx - sx) * (-sy) / (cy - sy);
+  if (xc >= w.b0 - end_slack && xc <= w.b1 + end_slack) {
+    relax_vertex(mesh_->opposite_vertex(h), w.sigma + length2(cx - sx, cy - sy), self,
+                 kViaNone, w.source_index);
+  }
+
+  // Parameter along segment P0 -> P1 where the ray from S through (x, 0) crosses it.
+  auto crossing = [&](double x, double p0x, double p0y, double p1x, double p1y) {
+    const double dx = x - sx, dy = -sy;
+    const double den = cross2(dx, dy, p1x - p0x, p1y - p0y);
+    if (den == 0) return x <= xc ? 0.0 : 1.0;
+    return std::clamp(cross2(dx, dy, sx - p0x, sy - p0y) / den, 0.0, 1.0);
+  };
+
+  // Entry points [b0, xc] go out through edge a -> c, [xc, b1] through c -> b. (Chen & Han's
+  // "one angle one split" pruning is subsumed here by trimming windows against the other
+  // windows on their edge when they are created.)
+  const double left_end = std::min(w.b1, xc), right_begin = std::max(w.b0, xc);
+  // Left child: edge a -> c, entered through twin(prev(h)).
+  if (w.b0 < left_end) {
+    const std::uint32_t edge_h = TriangleMesh::prev(h);
+    const std::int32_t t = mesh_->twin(edge_h);
+    const double lc = g.layout(edge_h).length;
+    if (t >= 0 && lc > 0) {
+      const double t0 = crossing(w.b0, 0, 0, cx, cy);
+      const double t1 = left_end >= xc ? 1.0 : crossing(left_end, 0, 0, cx, cy);
+      const double ex = cx / length2(cx, cy), ey = cy / length2(cx, cy);
+      create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
+                    {sx * ex + sy * ey, cross2(ex, ey, sx, sy)}, w.sigma, self, w.origin, w.seed,
+                    w.source_index);
+    }
+  }
+  // Right child: edge c -> b, entered through twin(next(h)).
+  if (w.b1 > right_begin) {
+    const std::uint32_t edge_h = TriangleMesh::next(h);
+    const std::int32_t t = mesh_->twin(edge_h);
+    const double lc = g.layout(edge_h).length;
+    if (t >= 0 && lc > 0) {
+      const double t0 = right_begin <= xc ? 0.0 : crossing(right_begin, cx, cy, L, 0);
+      const double t1 = crossing(w.b1, cx, cy, L, 0);
+      const double len = length2(L - cx, cy);
+      const double ex = (L - cx) / len, ey = -cy / len;
+      const double rx = sx - cx, ry = sy - cy;
+      create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
+                    {rx * ex + ry * ey, cross2(ex, ey, rx, ry)}, w.sigma, self, w.origin, w.seed,
+                    w.source_index);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Targets: estimates updated whenever a window or vertex of their face improves.
+
+void ExactGeodesicSolver::add_target(std::uint32_t index, const SurfacePoint& point) {
+  Target target{};
+  target.estimate = kInfinity;
+  target.settled = false;
+  target.next = -1;
+  if (point.kind == SurfacePoint::Kind::Vertex) {
+    target.vertex = static_cast<std::int32_t>(point.id);
+    target.face = 0;
+    if (vertex_target_stamp_[point.id] != generation_) {
+      vertex_target_stamp_[point.id] = generation_;
+      vertex_first_target_[point.id] = -1;
+    }
+    target.next = vertex_first_target_[point.id];
+    vertex_first_target_[point.id] = static_cast<std::int32_t>(index);
+  } else {
+    auto [face, bary] = point.in_face(*mesh_);
+    target.vertex = -1;
+    target.face = face;
+    target.point = geometry_->face_point(face, bary.data());
+    ++face_targets_;
+    touch_face(face);
+    target.next = face_first_target_[face];
+    face_first_target_[face] = static_cast<std::int32_t>(index);
+  }
+  targets_.push_back(target);
+}
+
+void ExactGeodesicSolver::improve_target(std::uint32_t index, double estimate) {
+  Target& t = targets_[index];
+  if (t.settled || !(estimate < t.estimate)) return;
+  t.estimate = estimate;
+  target_queue_.push_back({estimate, index});
+  std::push_heap(target_queue_.begin(), target_queue_.end(), std::greater<>{});
+}
+
+void ExactGeodesicSolver::update_targets_in_face(std::uint32_t face) {
+  if (face_stamp_[face] != generation_) return;
+  for (std::int32_t i = face_first_target_[face]; i >= 0; i = targets_[i].next) {
+    improve_target(static_cast<std::uint32_t>(i), best_in_face(face, targets_[i].point).distance);
+  }
+}
+
+void ExactGeodesicSolver::update_targets_at_vertex(std::uint32_t v) {
+  if (vertex_target_stamp_[v] == generation_) {
+    for (std::int32_t i = vertex_first_target_[v]; i >= 0; i = targets_[i].next) {
+      improve_target(static_cast<std::uint32_t>(i), vertex_distance_[v]);
+    }
+  }
+  if (face_targets_ == 0) return;
+  for (std::uint32_t h : mesh_->outgoing_halfedges(v)) update_targets_in_face(h / 3);
+}
+
+void ExactGeodesicSolver::settle_targets_up_to(double key) {
+  while (!target_queue_.empty() && target_queue_.front().first <= key) {
+    const auto [estimate, index] = target_queue_.front();
+    std::pop_heap(target_queue_.begin(), target_queue_.end(), std::greater<>{});
+    target_queue_.pop_back();
+    Target& t = targets_[index];
+    if (t.settled || estimate != t.estimate) continue;
+    t.settled = true;
+    settled_targets_.push_back(index);
+    settled_distances_.push_back(estimate);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Queries after a solve.
+
+ExactGeodesicSolver::Candidate ExactGeodesicSolver::best_in_face(std::uint32_t face,
+                                                                 Vec2 p) const {
+  const IntrinsicGeometry& g = *geometry_;
+  Candidate best;
+  for (int i = 0; i < 3; ++i) {
+    const std::uint32_t v = mesh_->face(face)[i];
+    const double dv = vertex_estimate(v);
+    if (dv < kInfinity) {
+      const Vec2 c = g.face_corner(face, i);
+      const double d = dv + length2(p.x - c.x, p.y - c.y);
+      if (d < best.distance) best = {Candidate::Kind::Vertex, d, static_cast<std::int32_t>(v), {}};
+    }
+  }
+  if (face_stamp_[face] == generation_) {
+    for (std::int32_t s = face_first_seed_[face]; s >= 0; s = seeds_[s].next) {
+      const Seed& seed = seeds_[s];
+      const double d = seed.offset + length2(p.x - seed.point.x, p.y - seed.point.y);
+      if (d < best.distance) best = {Candidate::Kind::Seed, d, s, {}};
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    const std::uint32_t h = 3 * face + static_cast<std::uint32_t>(i);
+    if (halfedge_stamp_[h] != generation_) continue;
+    const double L = g.layout(h).length;
+    if (L <= 0) continue;
+    const Vec2 q = face_to_halfedge_frame(g, face, i, p);
+    const double slack = kVisibilitySlack * L;
+    for (std::int32_t wi = halfedge_first_window_[h]; wi >= 0;
+         wi = windows_[static_cast<std::size_t>(wi)].next_on_halfedge) {
+      const Window& w = windows_[static_cast<std::size_t>(wi)];
+      if (w.key == kInfinity) continue;
+      const double qy = std::max(q.y, 0.0);
+      const double x = qy - w.sy > 0 ? w.sx + (q.x - w.sx) * (-w.sy) / (qy - w.sy) : q.x;
+      if (x < w.b0 - slack || x > w.b1 + slack) continue;
+      const double d = w.sigma + length2(q.x - w.sx, qy - w.sy);
+      if (d < best.distance) best = {Candidate::Kind::Window, d, wi, {q.x, qy}};
+    }
+  }
+  return best;
+}
+
+double ExactGeodesicSolver::distance(std::uint32_t vertex) const {
+  if (vertex >= mesh_->num_vertices()) {
+    throw InvalidInput("VertexOutOfRange", "vertex " + std::to_string(vertex) +
+                                               " is out of range (mesh has " +
+                                               std::to_string(mesh_->num_vertices()) +
+                                               " vertices)");
+  }
+  const double d = vertex_estimate(vertex);
+  return d <= radius_reached_ ? d : kInfinity;
+}
+
+double ExactGeodesicSolver::distance(const SurfacePoint& point) const {
+  point.validate(*mesh_);
+  if (point.kind == SurfacePoint::Kind::Vertex) return distance(point.id);
+  auto [face, bary] = point.in_face(*mesh_);
+  const double d = best_in_face(face, geometry_->face_point(face, bary.data())).distance;
+  return d <= radius_reached_ ? d : kInfinity;
+}
+
+std::vector<double> ExactGeodesicSolver::vertex_distances() const {
+  std::vector<double> out(mesh_->num_vertices());
+  for (std::uint32_t v = 0; v < out.size(); ++v) {
+    const double d = vertex_estimate(v);
+    out[v] = d <= radius_reached_ ? d : kInfinity;
+  }
+  return out;
+}
+
+std::int32_t ExactGeodesicSolver::nearest_source(std::uint32_t vertex) const {
+  if (distance(vertex) == kInfinity) return -1;
+  return static_cast<std::int32_t>(vertex_source_[vertex]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Backtracing: from the target towards the source, through the chain of windows whose unfolded
+// source the path points at, and through pseudo-source vertices.
+
+namespace {
+
+struct PathBuilder {
+  const TriangleMesh& mesh;
+  std::vector<PathPoint> points;
+
+  void add(const SurfacePoint& p) {
+    const Vec3 pos = p.position(mesh);
+    if (!points.empty()) {
+      const PathPoint& last = points.back();
+      // Only the very same point is dropped: distinct points at one position (across a
+      // zero-area face) each name the face they share with their neighbours.
+      const SurfacePoint& q = last.point;
+      const bool same = q.kind == p.kind && q.id == p.id && q.t == p.t && q.bary == p.bary;
+      if (same) return;
+    }
+    points.push_back({p, pos});
+  }
+};
+
+// Faces that contain a surface point, and its coordinates in the frame of one of them.
+bool point_in_face_frame(const TriangleMesh& mesh, const IntrinsicGeometry& g,
+                         const SurfacePoint& p, std::uint32_t f, Vec2& out) {
+  const Triangle& t = mesh.face(f);
+  switch (p.kind) {
+    case SurfacePoint::Kind::Vertex:
+      for (int i = 0; i < 3; ++i) {
+        if (t[i] == p.id) {
+          out = g.face_corner(f, i);
+          return true;
+        }
+      }
+      return false;
+    case SurfacePoint::Kind::Edge:
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t h = 3 * f + static_cast<std::uint32_t>(i);
+        if (mesh.edge_of(h) != p.id) continue;
+        const double along = mesh.edge_halfedge(p.id) == h ? p.t : 1 - p.t;  // from origin(h)
+        const Vec2 a = g.face_corner(f, i), b = g.face_corner(f, (i + 1) % 3);
+        out = {a.x + along * (b.x - a.x), a.y + along * (b.y - a.y)};
+        return true;
+      }
+      return false;
+    case SurfacePoint::Kind::Face:
+      if (p.id != f) return false;
+      out = g.face_point(f, p.bary.data());
+      return true;
+  }
+  return false;
+}
+
+void faces_of(const TriangleMesh& mesh, const SurfacePoint& p, std::vector<std::uint32_t>& out) {
+  out.clear();
+  switch (p.kind) {
+    case SurfacePoint::Kind::Vertex:
+      for (std::uint32_t h : mesh.outgoing_halfedges(p.id)) out.push_back(h / 3);
+      break;
+    case SurfacePoint::Kind::Edge: {
+      const std::uint32_t h = mesh.edge_halfedge(p.id);
+      out.push_back(h / 3);
+      if (mesh.twin(h) >= 0) out.push_back(static_cast<std::uint32_t>(mesh.twin(h)) / 3);
+      break;
+    }
+    case SurfacePoint::Kind::Face:
+      out.push_back(p.id);
+      break;
+  }
+}
+
+// Unit direction (dx, dy) given in the frame of halfedge h, in the frame of h's face.
+FaceDirection halfedge_direction(const IntrinsicGeometry& g, std::uint32_t h, double dx,
+                                 double dy) {
+  const std::uint32_t f = h / 3;
+  const int i = static_cast<int>(h % 3);
+  const double len = length2(dx, dy);
+  if (!(len > 0)) return {f, 1, 0};
+  dx /= len;
+  dy /= len;
+  if (i == 0) return {f, dx, dy};
+  const Vec2 origin = g.face_corner(f, i);
+  const Vec2 to = g.face_corner(f, (i + 1) % 3);
+  const double l = length2(to.x - origin.x, to.y - origin.y);
+  const double ex = (to.x - origin.x) / l, ey = (to.y - origin.y) / l;
+  return {f, dx * ex - dy * ey, dx * ey + dy * ex};
+}
+
+FaceDirection reversed(FaceDirection d) { return {d.face, -d.x, -d.y}; }
+
+SurfacePoint point_on_halfedge(const TriangleMesh& mesh, std::uint32_t h, double x, double L) {
+  const double rel = L > 0 ? std::clamp(x / L, 0.0, 1.0) : 0.0;
+  if (rel <= 1e-12) return SurfacePoint::vertex(mesh.origin(h));
+  if (rel >= 1 - 1e-12) return SurfacePoint::vertex(mesh.target(h));
+  const std::uint32_t e = mesh.edge_of(h);
+  return SurfacePoint::edge(e, mesh.edge_halfedge(e) == h ? rel : 1 - rel);
+}
+
+}  // namespace
+
+GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
+  point.validate(*mesh_);
+  const IntrinsicGeometry& g = *geometry_;
+  GeodesicPath path;
+  PathBuilder builder{*mesh_, {}};
+  builder.add(point);
+
+  std::int32_t vertex = -1;  // continue from this vertex when >= 0
+  std::int32_t window = -1;  // or trace this window from `p` (in its halfedge frame)
+  Vec2 p{};
+  double distance_found = kInfinity;
+  std::uint32_t source_index = 0;
+  bool done = false;
+
+  // End directions come from the straight pieces themselves (window geometry, edges), not from
+  // consecutive polyline points, which can be arbitrarily close across slivers.
+  bool have_target_direction = false;
+  auto record_piece = [&](FaceDirection at_target_side, FaceDirection at_source_side) {
+    if (!have_target_direction) {
+      path.direction_at_target = at_target_side;
+      have_target_direction = true;
+    }
+    path.direction_at_source = at_source_side;
+  };
+  // A straight piece inside face f between two points given in f's frame.
+  auto record_in_face = [&](std::uint32_t f, Vec2 from, Vec2 to) {
+    // A piece of (numerically) zero length has no direction: the next one decides.
+    const double scale = g.layout(3 * f).length + length2(g.layout(3 * f).cx, g.layout(3 * f).cy);
+    if (length2(to.x - from.x, to.y - from.y) <= 1e-12 * scale) return;
+    const FaceDirection d = halfedge_direction(g, 3 * f, to.x - from.x, to.y - from.y);
+    record_piece(d, reversed(d));
+  };
+  auto corner_of = [&](std::uint32_t f, std::uint32_t v) {
+    int corner = 0;
+    while (corner < 2 && mesh_->face(f)[corner] != v) ++corner;
+    return g.face_corner(f, corner);
+  };
+
+  auto finish_at_seed = [&](std::int32_t seed) {
+    const Seed& s = seeds_[static_cast<std::size_t>(seed)];
+    builder.add(sources_[s.source_index].point);
+    source_index = s.source_index;
+    done = true;
+  };
+
+  if (point.kind == SurfacePoint::Kind::Vertex) {
+    distance_found = distance(point.id);
+    vertex = static_cast<std::int32_t>(point.id);
+  } else {
+    auto [face, bary] = point.in_face(*mesh_);
+    const Candidate best = best_in_face(face, g.face_point(face, bary.data()));
+    distance_found = best.distance <= radius_reached_ ? best.distance : kInfinity;
+    if (distance_found < kInfinity) {
+      const Vec2 here = g.face_point(face, bary.data());
+      switch (best.kind) {
+        case Candidate::Kind::Vertex:
+          vertex = best.index;
+          record_in_face(face, here, corner_of(face, static_cast<std::uint32_t>(vertex)));
+          builder.add(SurfacePoint::vertex(static_cast<std::uint32_t>(vertex)));
+          break;
+        case Candidate::Kind::Seed:
+          record_in_face(face, here, seeds_[static_cast<std::size_t>(best.index)].point);
+          finish_at_seed(best.index);
+          break;
+        case Candidate::Kind::Window:
+          window = best.index;
+          p = best.point_in_frame;
+          break;
+        case Candidate::Kind::None:
+          break;
+      }
+    }
+  }
+  if (distance_found == kInfinity) {
+    throw Unreachable("Unreachable", "point " + point.to_string() +
+                                         " is not reachable from the sources" +
+                                         (radius_reached_ < kInfinity ? " within the radius solved"
+                                                                      : ""));
+  }
+
+  const std::size_t guard_limit = 4 * (windows_.size() + mesh_->num_vertices()) + 16;
+  std::size_t guard = 0;
+  bool piece_started = false;  // inside a window chain, its target-side direction is recorded
+  while (!done) {
+    GEOPROX_ASSERT(++guard < guard_limit, "backtrace does not terminate");
+    if (window >= 0) {
+      const Window& w = windows_[static_cast<std::size_t>(window)];
+      const HalfedgeLayout& lay = g.layout(w.halfedge);
+      if (!piece_started) {
+        piece_started = true;
+        const FaceDirection towards = halfedge_direction(g, w.halfedge, w.sx - p.x, w.sy - p.y);
+        if (!have_target_direction) {
+          path.direction_at_target = towards;
+          have_target_direction = true;
+        }
+      }
+      // Where the segment from p towards the unfolded source crosses the window's edge.
+      double x = p.x;
+      if (p.y - w.sy > 0) x = p.x + (w.sx - p.x) * (p.y / (p.y - w.sy));
+      x = std::clamp(x, w.b0, w.b1);
+      builder.add(point_on_halfedge(*mesh_, w.halfedge, x, lay.length));
+      if (w.parent >= 0) {
+        const Window& parent = windows_[static_cast<std::size_t>(w.parent)];
+        const std::uint32_t ph = parent.halfedge;
+        const HalfedgeLayout& play = g.layout(ph);
+        const auto twin = static_cast<std::uint32_t>(mesh_->twin(w.halfedge));
+        const double along = lay.length > 0 ? (lay.length - x) / lay.length : 0;  // on the twin
+        if (twin == TriangleMesh::next(ph)) {  // b' -> c'
+          p = {play.length + along * (play.cx - play.length), along * play.cy};
+        } else {
+          GEOPROX_ASSERT(twin == TriangleMesh::prev(ph), "window chain is not adjacent");
+          p = {play.cx * (1 - along), play.cy * (1 - along)};  // c' -> a'
+        }
+        window = w.parent;
+        continue;
+      }
+      // The chain's root: its source lies in the face across the root's edge. The direction at
+      // the source points at the crossing, expressed in that face.
+      // Measured towards the current point p rather than the crossing, which coincides with the
+      // source when the source lies on the root's edge (a zero-area face behind it).
+      piece_started = false;
+      if (w.sy == 0) {
+        path.direction_at_source = halfedge_direction(g, w.halfedge, p.x - w.sx, p.y - w.sy);
+      } else {
+        const auto across = static_cast<std::uint32_t>(mesh_->twin(w.halfedge));
+        path.direction_at_source = halfedge_direction(g, across, w.sx - p.x, w.sy - p.y);
+      }
+      if (w.origin >= 0) {
+        builder.add(SurfacePoint::vertex(static_cast<std::uint32_t>(w.origin)));
+        vertex = w.origin;
+        window = -1;
+        continue;
+      }
+      finish_at_seed(w.seed);
+      continue;
+    }
+    // From a vertex: follow how its distance was obtained.
+    const auto v = static_cast<std::uint32_t>(vertex);
+    const std::int32_t via_vertex = vertex_via_vertex_[v];
+    const std::int32_t via_window = vertex_via_window_[v];
+    if (via_vertex == kViaSourceVertex) {
+      builder.add(SurfacePoint::vertex(v));
+      source_index = vertex_source_[v];
+      done = true;
+    } else if (via_vertex >= 0) {
+      const auto u = static_cast<std::uint32_t>(via_vertex);
+      for (std::uint32_t h : mesh_->outgoing_halfedges(v)) {
+        if (mesh_->target(h) == u) {
+          const FaceDirection along = halfedge_direction(g, h, 1, 0);
+          record_piece(along, reversed(along));
+          break;
+        }
+        if (mesh_->origin(TriangleMesh::prev(h)) == u) {  // v <- u is prev(h): run it backwards
+          const std::uint32_t back = TriangleMesh::prev(h);
+          const FaceDirection along = halfedge_direction(g, back, -1, 0);
+          record_piece(along, reversed(along));
+          break;
+        }
+      }
+      builder.add(SurfacePoint::vertex(u));
+      vertex = via_vertex;
+    } else if (via_vertex <= kViaSeedBase) {
+      const Seed& seed = seeds_[static_cast<std::size_t>(kViaSeedBase - via_vertex)];
+      record_in_face(seed.face, corner_of(seed.face, v), seed.point);
+      finish_at_seed(kViaSeedBase - via_vertex);
+    } else {
+      GEOPROX_ASSERT(via_window >= 0, "reached vertex without a predecessor");
+      const Window& w = windows_[static_cast<std::size_t>(via_window)];
+      const HalfedgeLayout& lay = g.layout(w.halfedge);
+      if (v == mesh_->origin(w.halfedge)) {
+        p = {0, 0};
+      } else if (v == mesh_->target(w.halfedge)) {
+        p = {lay.length, 0};
+      } else {
+        p = {lay.cx, lay.cy};
+      }
+      window = via_window;
+      vertex = -1;
+    }
+  }
+
+  std::reverse(builder.points.begin(), builder.points.end());
+  path.points = std::move(builder.points);
+  path.length = distance_found;
+  path.source_index = source_index;
+  if (!have_target_direction) {  // a path of length zero
+    std::vector<std::uint32_t> faces;
+    faces_of(*mesh_, point, faces);
+    const std::uint32_t f = faces.empty() ? 0 : faces.front();
+    path.direction_at_source = {f, 1, 0};
+    path.direction_at_target = {f, 1, 0};
+  }
+  return path;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+std::vector<double> exact_geodesic_distances(const TriangleMesh& mesh,
+                                             const IntrinsicGeometry& geometry,
+                                             std::span<const GeodesicSource> sources,
+                                             const ExactGeodesicSolver::Options& options) {
+  ExactGeodesicSolver solver(mesh, geometry);
+  solver.solve(sources, {}, options);
+  return solver.vertex_distances();
+}
+
+GeodesicPath exact_geodesic_path(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                                 const SurfacePoint& source, const SurfacePoint& target) {
+  ExactGeodesicSolver solver(mesh, geometry);
+  const GeodesicSource one{source, 0.0};
+  const SurfacePoint targets[] = {target};
+  ExactGeodesicSolver::Options options;
+  options.stop_after_targets = 1;
+  solver.solve(std::span<const GeodesicSource>(&one, 1), targets, options);
+  return solver.path_to(target);
+}
+
+}  // namespace geoprox

@@ -1,0 +1,250 @@
+// Exact discrete geodesics by window propagation: Xin & Wang, "Improving Chen and Han's
+// algorithm on the discrete geodesic problem", ACM TOG 28(4), 2009 (ICH), with the windows
+// processed in order of their minimum distance (as in Mitchell, Mount & Papadimitriou 1987 and
+// Surazhsky et al. 2005) so a solve can stop early, and with windows trimmed against the
+// vertices' current distances on creation and again when popped.
+//
+// A window is an interval of a halfedge through which the straight unfolded segment from one
+// (pseudo-)source S reaches every point; its distance is sigma + |S - x|. Every stored window is
+// a real path, so all distances are upper bounds that become exact once settled. Pseudo-sources
+// are saddle, flat and boundary vertices and corners of degenerate faces.
+//
+// Reads only IntrinsicGeometry (edge lengths): positions are used only to report path points.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "core/intrinsic_geometry.h"
+#include "core/mesh.h"
+#include "core/surface_point.h"
+
+namespace geoprox {
+
+inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+struct GeodesicSource {
+  SurfacePoint point;
+  double offset = 0;  ///< distance already travelled to this source (mesh units, >= 0)
+};
+
+/// A unit direction in the frame of a face (origin at its corner 0, x towards corner 1, y towards
+/// corner 2's side), see IntrinsicGeometry. Stored by the proximity graph and traced from later.
+struct FaceDirection {
+  std::uint32_t face = 0;
+  double x = 1, y = 0;
+};
+
+struct PathPoint {
+  SurfacePoint point;
+  Vec3 position;
+};
+
+struct GeodesicPath {
+  /// From the source to the target: the source point, edge crossings and pseudo-source vertices,
+  /// then the target point.
+  std::vector<PathPoint> points;
+  double length = kInfinity;       ///< equals the distance to the target
+  std::uint32_t source_index = 0;  ///< which of the solve's sources the path starts at
+  /// Unit tangent at the source pointing along the path (towards the target), and at the target
+  /// pointing back along the path (towards the source). For a path of zero length both are the
+  /// x axis of the point's face.
+  FaceDirection direction_at_source;
+  FaceDirection direction_at_target;
+};
+
+struct ExactGeodesicStats {
+  std::size_t windows_created = 0;     ///< windows stored after creation-time pruning
+  std::size_t pseudo_source_windows = 0;  ///< of which unfolded from a pseudo-source vertex
+  std::size_t windows_propagated = 0;  ///< windows popped and unfolded into the next face
+  std::size_t windows_pruned = 0;      ///< windows dropped at creation or pop by vertex pruning
+  std::size_t vertices_reached = 0;    ///< vertices whose distance is final (<= radius_reached)
+  std::size_t peak_queue = 0;          ///< largest priority-queue size
+};
+
+struct ExactGeodesicOptions {
+  /// Stop once every point within this geodesic distance of the sources is final (mesh
+  /// units); points farther away are reported unreachable. Infinity: the whole surface.
+  double max_distance = kInfinity;
+  /// With targets: stop as soon as this many targets are settled (0: all of them). The
+  /// settled ones are then exactly the nearest ones.
+  std::size_t stop_after_targets = 0;
+};
+
+class ExactGeodesicSolver {
+ public:
+  using Options = ExactGeodesicOptions;
+
+
+  /// Both must outlive the solver, which only reads them (many solvers may share one mesh).
+  ExactGeodesicSolver(const TriangleMesh& mesh, const IntrinsicGeometry& geometry);
+
+  /// Runs one solve; buffers are reused from the previous solve. Throws InvalidInput for an
+  /// invalid source or target point, or a negative or non-finite offset.
+  void solve(std::span<const GeodesicSource> sources, std::span<const SurfacePoint> targets = {},
+             const Options& options = {});
+  void solve(const SurfacePoint& source, const Options& options = {});
+
+  /// Distance to vertex v, or kInfinity if unreachable / beyond the radius reached.
+  double distance(std::uint32_t vertex) const;
+  /// Distance to any surface point (validated; throws InvalidInput if it is not on the mesh).
+  double distance(const SurfacePoint& point) const;
+  /// Distance of every vertex, in vertex order (kInfinity where not reached).
+  std::vector<double> vertex_distances() const;
+  /// The source whose distance field is smallest at vertex v (the geodesic Voronoi cell), or -1.
+  std::int32_t nearest_source(std::uint32_t vertex) const;
+
+  /// Shortest path from the sources to `point`; throws Unreachable if it was not reached.
+  GeodesicPath path_to(const SurfacePoint& point) const;
+
+  /// Vertices the last solve gave a distance to (final or not), in the order reached; with
+  /// distance(v) this lists a bounded solve's disk without scanning the whole mesh.
+  const std::vector<std::uint32_t>& touched_vertices() const { return touched_vertices_; }
+
+  /// Every point with distance <= radius_reached() is final. Infinity after a full solve.
+  double radius_reached() const { return radius_reached_; }
+  /// Indices (into the targets given to solve) of the settled targets, nearest first, and their
+  /// distances.
+  const std::vector<std::uint32_t>& settled_targets() const { return settled_targets_; }
+  const std::vector<double>& settled_target_distances() const { return settled_distances_; }
+  const ExactGeodesicStats& stats() const { return stats_; }
+
+  const TriangleMesh& mesh() const { return *mesh_; }
+  const IntrinsicGeometry& geometry() const { return *geometry_; }
+
+ private:
+  struct Window {
+    double b0, b1;     // interval along the halfedge, from its origin
+    double sx, sy;     // unfolded (pseudo-)source in the halfedge frame, sy < 0
+    double sigma;      // distance already travelled to the (pseudo-)source
+    double key;        // smallest distance over the interval; kInfinity once dropped
+    std::uint32_t halfedge;
+    std::int32_t parent;    // window this one was unfolded from, or -1
+    std::int32_t origin;    // pseudo-source vertex when parent == -1, or -1 for a seed
+    std::int32_t seed;      // seed index when parent == -1 and origin == -1
+    std::uint32_t source_index;
+    std::int32_t next_on_halfedge;
+    bool propagated;        // unfolded into the next face already (never trimmed after that)
+
+    double distance_at(double x) const { return sigma + std::sqrt((x - sx) * (x - sx) + sy * sy); }
+  };
+
+  struct QueueEntry {
+    double key;
+    std::uint32_t item;  // window index, or kVertexItem | vertex
+    bool operator>(const QueueEntry& other) const { return key > other.key; }
+  };
+  struct Candidate;
+
+  void reset();
+  void touch_face(std::uint32_t face);
+  void add_source(std::uint32_t index, const GeodesicSource& source);
+  void seed_face_point(std::uint32_t source_index, double offset, std::uint32_t face,
+                       const std::array<double, 3>& bary);
+  void emit_pseudo_source(std::uint32_t vertex);
+  double incoming_angle(std::uint32_t vertex, std::uint32_t& fan_start) const;
+  void emit_into_corner(std::uint32_t vertex, std::uint32_t halfedge, double angle_begin,
+                        double angle_end);
+  void propagate(std::uint32_t window_index, double popped_key);
+  void create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source, double sigma,
+                     std::int32_t parent, std::int32_t origin, std::int32_t seed,
+                     std::uint32_t source_index);
+  bool trim_window(Window& w) const;
+  bool trim_against_edge_windows(Window& w);
+  static double window_key(const Window& w);
+  void relax_vertex(std::uint32_t vertex, double distance, std::int32_t via_window,
+                    std::int32_t via_vertex, std::uint32_t source_index);
+  void push(double key, std::uint32_t item);
+  void pop();
+  void add_target(std::uint32_t index, const SurfacePoint& point);
+  void improve_target(std::uint32_t index, double estimate);
+  void update_targets_in_face(std::uint32_t face);
+  void update_targets_at_vertex(std::uint32_t vertex);
+  void settle_targets_up_to(double key);
+  Candidate best_in_face(std::uint32_t face, Vec2 point) const;
+  /// Calls f(index, window) for each live window on halfedge h, unlinking dropped ones.
+  template <class F>
+  void for_each_live_window(std::uint32_t h, F&& f) {
+    if (halfedge_stamp_[h] != generation_) return;
+    std::int32_t* link = &halfedge_first_window_[h];
+    while (*link >= 0) {
+      Window& o = windows_[static_cast<std::size_t>(*link)];
+      if (o.key == kInfinity) {
+        *link = o.next_on_halfedge;
+        continue;
+      }
+      f(*link, o);
+      link = &o.next_on_halfedge;
+    }
+  }
+  double vertex_estimate(std::uint32_t v) const {
+    return vertex_stamp_[v] == generation_ ? vertex_distance_[v] : kInfinity;
+  }
+
+  const TriangleMesh* mesh_;
+  const IntrinsicGeometry* geometry_;
+
+  // Per-solve scratch, sized to the mesh once and validated by generation stamps.
+  std::uint32_t generation_ = 0;
+  std::vector<std::uint32_t> vertex_stamp_;
+  std::vector<double> vertex_distance_;
+  std::vector<std::int32_t> vertex_via_window_;  ///< window whose source reaches v, or -1
+  std::vector<std::int32_t> vertex_via_vertex_;  ///< pseudo-source neighbour, or -1
+  std::vector<std::uint32_t> vertex_source_;     ///< index of the source that reaches v
+  std::vector<std::uint8_t> vertex_emitted_;     ///< pseudo-source windows already emitted
+  std::vector<std::uint32_t> vertex_target_stamp_;
+  std::vector<std::int32_t> vertex_first_target_;  ///< head of the vertex's target list
+  std::vector<std::uint32_t> halfedge_stamp_;
+  std::vector<std::int32_t> halfedge_first_window_;  ///< head of the halfedge's window list
+  std::vector<std::uint32_t> face_stamp_;
+  std::vector<std::int32_t> face_first_target_;   ///< head of the face's target list
+  std::vector<std::int32_t> face_first_seed_;     ///< head of the face's source-seed list
+
+  std::vector<Window> windows_;
+  std::vector<QueueEntry> queue_;
+
+  struct Seed {
+    std::uint32_t face;
+    Vec2 point;
+    double offset;
+    std::uint32_t source_index;
+    std::int32_t next;
+  };
+  std::vector<Seed> seeds_;
+  std::vector<GeodesicSource> sources_;
+
+  struct Target {
+    std::int32_t vertex;  ///< >= 0 for a vertex target, else the point is `point` in `face`
+    std::uint32_t face;
+    Vec2 point;
+    double estimate;
+    std::int32_t next;
+    bool settled;
+  };
+  std::vector<Target> targets_;
+  std::vector<std::pair<double, std::uint32_t>> target_queue_;
+  std::vector<std::uint32_t> settled_targets_;
+  std::vector<double> settled_distances_;
+  std::size_t targets_wanted_ = 0;
+  std::size_t face_targets_ = 0;  ///< targets that are not vertices
+  std::vector<std::uint32_t> touched_vertices_;
+
+  double radius_reached_ = kInfinity;
+  ExactGeodesicStats stats_;
+};
+
+/// One-shot: exact distance of every vertex from the sources (kInfinity where unreachable or
+/// beyond options.max_distance).
+std::vector<double> exact_geodesic_distances(const TriangleMesh& mesh,
+                                             const IntrinsicGeometry& geometry,
+                                             std::span<const GeodesicSource> sources,
+                                             const ExactGeodesicSolver::Options& options = {});
+
+/// One-shot: exact shortest path between two surface points.
+GeodesicPath exact_geodesic_path(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                                 const SurfacePoint& source, const SurfacePoint& target);
+
+}  // namespace geoprox

@@ -1,0 +1,134 @@
+#include "core/intrinsic_geometry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "core/errors.h"
+
+namespace geoprox {
+
+namespace {
+
+// Heron's formula in Kahan's ordering: accurate for needles and caps.
+double triangle_area(double a, double b, double c) {
+  double s[3] = {a, b, c};
+  std::sort(s, s + 3, [](double x, double y) { return x > y; });
+  const double p = (s[0] + (s[1] + s[2])) * (s[2] - (s[0] - s[1])) * (s[2] + (s[0] - s[1])) *
+                   (s[0] + (s[1] - s[2]));
+  return 0.25 * std::sqrt(std::max(0.0, p));
+}
+
+}  // namespace
+
+IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, const Options& options)
+    : mesh_(&mesh) {
+  edge_length_.resize(mesh.num_edges());
+  for (std::uint32_t e = 0; e < mesh.num_edges(); ++e) {
+    edge_length_[e] = norm(mesh.position(mesh.edge_target(e)) - mesh.position(mesh.edge_origin(e)));
+  }
+  build(options);
+}
+
+IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, std::vector<double> edge_lengths,
+                                     const Options& options)
+    : mesh_(&mesh), edge_length_(std::move(edge_lengths)) {
+  if (edge_length_.size() != mesh.num_edges()) {
+    throw MeshError("BadEdgeLength", "got " + std::to_string(edge_length_.size()) +
+                                         " edge lengths for a mesh with " +
+                                         std::to_string(mesh.num_edges()) + " edges");
+  }
+  for (std::uint32_t e = 0; e < edge_length_.size(); ++e) {
+    if (!std::isfinite(edge_length_[e]) || edge_length_[e] < 0) {
+      throw MeshError("BadEdgeLength", "edge " + std::to_string(e) + " has length " +
+                                           std::to_string(edge_length_[e]) +
+                                           "; lengths must be finite and non-negative");
+    }
+  }
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
+    const double a = edge_length_[mesh.edge_of(3 * f)];
+    const double b = edge_length_[mesh.edge_of(3 * f + 1)];
+    const double c = edge_length_[mesh.edge_of(3 * f + 2)];
+    const double slack = 1e-12 * (a + b + c);
+    if (a > b + c + slack || b > a + c + slack || c > a + b + slack) {
+      throw MeshError("TriangleInequality",
+                      "face " + std::to_string(f) + " has edge lengths " + std::to_string(a) +
+                          ", " + std::to_string(b) + ", " + std::to_string(c) +
+                          " that violate the triangle inequality");
+    }
+  }
+  build(options);
+}
+
+void IntrinsicGeometry::build(const Options& options) {
+  const TriangleMesh& mesh = *mesh_;
+  const std::size_t nh = mesh.num_halfedges();
+  layout_.resize(nh);
+  face_area_.assign(mesh.num_faces(), 0);
+  angle_sum_.assign(mesh.num_vertices(), 0);
+  double total = 0;
+  for (double l : edge_length_) total += l;
+  mean_edge_length_ = edge_length_.empty() ? 0 : total / static_cast<double>(edge_length_.size());
+  const double degenerate_area =
+      options.degenerate_area_ratio * mean_edge_length_ * mean_edge_length_;
+
+  degenerate_face_.assign(mesh.num_faces(), 0);
+  for (std::uint32_t h = 0; h < nh; ++h) {
+    // h = a->b; lengths of ab, bc, ca.
+    const double ab = edge_length_[mesh.edge_of(h)];
+    const double bc = edge_length_[mesh.edge_of(TriangleMesh::next(h))];
+    const double ca = edge_length_[mesh.edge_of(TriangleMesh::prev(h))];
+    HalfedgeLayout& lay = layout_[h];
+    lay.length = ab;
+    if (ab > 0) {
+      // Height from the area (Kahan's stable Heron) rather than sqrt(ca^2 - cx^2), which
+      // cancels catastrophically for caps and needles; every halfedge of a face then lays it
+      // out with the same area, so unfoldings across it agree to rounding.
+      lay.cx = (ab * ab + ca * ca - bc * bc) / (2 * ab);
+      lay.cy = std::min(ca, 2 * triangle_area(ab, bc, ca) / ab);
+    } else {
+      lay.cx = 0;
+      lay.cy = ca;
+    }
+    // Angle at corner a from the layout (atan2 stays accurate for needles and caps).
+    double angle;
+    if (ab <= 0 || ca <= 0) {
+      angle = 0;
+    } else {
+      angle = std::atan2(lay.cy, lay.cx);
+    }
+    angle_sum_[mesh.origin(h)] += angle;
+    if (h % 3 == 0) {
+      const double area = triangle_area(ab, bc, ca);
+      face_area_[h / 3] = area;
+      degenerate_face_[h / 3] = area <= degenerate_area ? 1 : 0;
+    }
+  }
+
+  pseudo_source_.assign(mesh.num_vertices(), 0);
+  const double saddle = 2 * std::numbers::pi * (1 + options.saddle_angle_tolerance);
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+    if (mesh.is_boundary_vertex(v) || angle_sum_[v] > saddle) pseudo_source_[v] = 1;
+  }
+  degenerate_vertex_.assign(mesh.num_vertices(), 0);
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
+    if (degenerate_face_[f]) {
+      for (std::uint32_t v : mesh.face(f)) pseudo_source_[v] = degenerate_vertex_[v] = 1;
+    }
+  }
+}
+
+Vec2 IntrinsicGeometry::face_corner(std::uint32_t f, int corner) const {
+  const HalfedgeLayout& lay = layout_[3 * f];
+  if (corner == 0) return {0, 0};
+  if (corner == 1) return {lay.length, 0};
+  return {lay.cx, lay.cy};
+}
+
+Vec2 IntrinsicGeometry::face_point(std::uint32_t f, const double bary[3]) const {
+  const HalfedgeLayout& lay = layout_[3 * f];
+  return {bary[1] * lay.length + bary[2] * lay.cx, bary[2] * lay.cy};
+}
+
+}  // namespace geoprox

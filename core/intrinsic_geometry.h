@@ -1,0 +1,83 @@
+// Intrinsic geometry of a triangle mesh: edge lengths and what derives from them (no paper; the
+// "intrinsic triangulation" view of Sharp, Soliman & Crane 2019 in its simplest form).
+//
+// Every geodesic solver in geoprox reads lengths from here and never positions, so a Riemannian
+// metric (other edge lengths) changes nothing in the solvers. For each halfedge h = a->b of face
+// (a, b, c) the face is laid out in h's frame: a = (0, 0), b = (L, 0), c = (cx, cy) with cy >= 0.
+// The frame of face f is the frame of its halfedge 3f (origin at its corner 0).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh.h"
+
+namespace geoprox {
+
+struct HalfedgeLayout {
+  double length = 0;  ///< |ab| in mesh units
+  double cx = 0;      ///< opposite corner c in the frame of h
+  double cy = 0;      ///< >= 0; 0 for a degenerate (zero-area) face
+};
+
+struct Vec2 {
+  double x = 0, y = 0;
+};
+
+struct IntrinsicGeometryOptions {
+  /// Faces whose area is below this fraction of (mean edge length)^2 count as degenerate: their
+  /// corners become pseudo-sources, so exact solvers route through them instead of unfolding.
+  double degenerate_area_ratio = 1e-14;
+  /// A vertex whose angle sum exceeds 2*pi*(1 + this) is a saddle; flatter ones are not, since
+  /// a shortest path passes straight through a flat vertex and windows on both sides cover it.
+  double saddle_angle_tolerance = 1e-9;
+};
+
+class IntrinsicGeometry {
+ public:
+  using Options = IntrinsicGeometryOptions;
+
+
+  /// Lengths from the mesh's vertex positions.
+  explicit IntrinsicGeometry(const TriangleMesh& mesh, const Options& options = {});
+  /// Explicit per-edge lengths (edge ids of `mesh`): a Riemannian metric. Throws MeshError
+  /// (BadEdgeLength, TriangleInequality) naming the edge or face.
+  IntrinsicGeometry(const TriangleMesh& mesh, std::vector<double> edge_lengths,
+                    const Options& options = {});
+
+  /// The mesh must outlive this object.
+  const TriangleMesh& mesh() const { return *mesh_; }
+  double edge_length(std::uint32_t e) const { return edge_length_[e]; }
+  const std::vector<double>& edge_lengths() const { return edge_length_; }
+  const HalfedgeLayout& layout(std::uint32_t h) const { return layout_[h]; }
+  double angle_sum(std::uint32_t v) const { return angle_sum_[v]; }
+  double face_area(std::uint32_t f) const { return face_area_[f]; }
+  double mean_edge_length() const { return mean_edge_length_; }
+  /// Vertices through which a shortest path can bend: saddles (angle sum > 2 pi), boundary
+  /// vertices and corners of degenerate faces.
+  bool is_pseudo_source(std::uint32_t v) const { return pseudo_source_[v] != 0; }
+  bool is_degenerate_face(std::uint32_t f) const { return degenerate_face_[f] != 0; }
+  /// A corner of some degenerate face: angles there are unreliable, so solvers treat it as a
+  /// pseudo-source emitting in every direction.
+  bool is_degenerate_vertex(std::uint32_t v) const { return degenerate_vertex_[v] != 0; }
+
+  /// Corner `corner` (0..2) of face f in the face's frame.
+  Vec2 face_corner(std::uint32_t f, int corner) const;
+  /// Barycentrics of face f -> point in the face's frame.
+  Vec2 face_point(std::uint32_t f, const double bary[3]) const;
+
+ private:
+  void build(const Options& options);
+
+  const TriangleMesh* mesh_;
+  std::vector<double> edge_length_;
+  std::vector<HalfedgeLayout> layout_;
+  std::vector<double> angle_sum_;
+  std::vector<double> face_area_;
+  std::vector<std::uint8_t> pseudo_source_;
+  std::vector<std::uint8_t> degenerate_face_;
+  std::vector<std::uint8_t> degenerate_vertex_;
+  double mean_edge_length_ = 0;
+};
+
+}  // namespace geoprox

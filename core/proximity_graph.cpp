@@ -1,0 +1,411 @@
+#include "core/proximity_graph.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <queue>
+#include <string>
+
+#include "core/errors.h"
+#include "core/exact_geodesic.h"
+#include "core/fast_marching.h"
+
+namespace geoprox {
+
+namespace {
+
+struct TableRow {
+  double faces;
+  double samples;
+  double neighbors;
+};
+// Table 1 of the paper: settings for 0.9% mean / 3.2% worst relative error.
+constexpr TableRow kTable1[] = {{10'000, 1300, 22},  {20'000, 1500, 21},  {50'000, 2300, 18},
+                                {100'000, 5000, 18}, {200'000, 10000, 18}, {300'000, 15000, 18}};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Mean Lo quality and fraction of obtuse faces: when fast marching cannot be trusted.
+std::pair<double, double> mesh_quality(const TriangleMesh& mesh, const IntrinsicGeometry& g) {
+  double quality = 0;
+  std::size_t obtuse = 0;
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
+    double squares = 0;
+    bool has_obtuse = false;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const HalfedgeLayout& lay = g.layout(3 * f + i);
+      squares += lay.length * lay.length;
+      if (lay.cx < 0) has_obtuse = true;  // the angle at this halfedge's origin is obtuse
+    }
+    quality += squares > 0 ? g.face_area(f) / squares : 0;
+    obtuse += has_obtuse ? 1 : 0;
+  }
+  const auto nf = static_cast<double>(mesh.num_faces());
+  return {quality / nf, static_cast<double>(obtuse) / nf};
+}
+
+class UnionFind {
+ public:
+  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0u); }
+  std::uint32_t find(std::uint32_t x) {
+    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
+    return x;
+  }
+  void unite(std::uint32_t a, std::uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
+  }
+
+ private:
+  std::vector<std::uint32_t> parent_;
+};
+
+// Connected components of the mesh's faces, as a component id per vertex (isolated vertices
+// get their own id).
+std::vector<std::uint32_t> vertex_components(const TriangleMesh& mesh, std::size_t& count) {
+  UnionFind uf(mesh.num_vertices());
+  for (const Triangle& t : mesh.faces()) {
+    uf.unite(t[0], t[1]);
+    uf.unite(t[1], t[2]);
+  }
+  std::vector<std::uint32_t> id(mesh.num_vertices());
+  std::vector<std::uint32_t> relabel(mesh.num_vertices(), UINT32_MAX);
+  count = 0;
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+    const std::uint32_t root = uf.find(v);
+    if (relabel[root] == UINT32_MAX) relabel[root] = static_cast<std::uint32_t>(count++);
+    id[v] = relabel[root];
+  }
+  return id;
+}
+
+struct LocalEdge {
+  std::uint32_t from, to;
+  double distance;
+  GraphDirection direction;  // at `from`, towards `to`
+};
+
+GraphDirection to_graph_direction(const FaceDirection& d) {
+  return {d.face, static_cast<float>(d.x), static_cast<float>(d.y)};
+}
+
+}  // namespace
+
+std::pair<std::uint32_t, std::uint32_t> default_graph_size(std::size_t faces) {
+  const auto f = static_cast<double>(faces);
+  const std::size_t rows = std::size(kTable1);
+  if (f <= kTable1[0].faces) {
+    return {static_cast<std::uint32_t>(kTable1[0].samples),
+            static_cast<std::uint32_t>(kTable1[0].neighbors)};
+  }
+  for (std::size_t i = 1; i < rows; ++i) {
+    if (f <= kTable1[i].faces) {
+      const double t = (f - kTable1[i - 1].faces) / (kTable1[i].faces - kTable1[i - 1].faces);
+      const double n = kTable1[i - 1].samples + t * (kTable1[i].samples - kTable1[i - 1].samples);
+      const double m =
+          kTable1[i - 1].neighbors + t * (kTable1[i].neighbors - kTable1[i - 1].neighbors);
+      return {static_cast<std::uint32_t>(std::lround(n)),
+              static_cast<std::uint32_t>(std::lround(m))};
+    }
+  }
+  return {static_cast<std::uint32_t>(kTable1[rows - 1].samples),
+          static_cast<std::uint32_t>(kTable1[rows - 1].neighbors)};
+}
+
+double ProximityGraphView::error_bound() const {
+  const double denom = longest_edge - 2 * covering_radius;
+  return denom > 0 ? 2 * covering_radius / denom : std::numeric_limits<double>::infinity();
+}
+
+ProximityGraphView ProximityGraph::view() const {
+  ProximityGraphView v;
+  v.num_vertices = num_vertices;
+  v.num_samples = static_cast<std::uint32_t>(sample_vertex.size());
+  v.neighbors = neighbors;
+  v.longest_edge = longest_edge;
+  v.covering_radius = covering_radius;
+  v.sample_vertex = sample_vertex;
+  v.edge_offsets = edge_offsets;
+  v.edge_target = edge_target;
+  v.edge_distance = edge_distance;
+  v.edge_direction = edge_direction;
+  v.cover_offsets = cover_offsets;
+  v.cover_sample = cover_sample;
+  v.cover_distance = cover_distance;
+  return v;
+}
+
+namespace {
+
+// Farthest-point sampling (paper §2.1): each new sample is the vertex farthest from all
+// previous ones; the distance field is only lowered where the new sample is closer, and the
+// farthest vertex comes from a lazy max-heap, not a scan. Vertices of a component with no sample
+// yet are infinitely far, so every component is seeded before any gets a second sample.
+std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
+                                                  const IntrinsicGeometry& geometry,
+                                                  std::uint32_t count, SamplingMethod method,
+                                                  double& covering_radius,
+                                                  const BuildProgress& progress) {
+  const std::uint32_t nv = static_cast<std::uint32_t>(mesh.num_vertices());
+  std::vector<double> field(nv, kInfinity);
+  std::vector<std::uint32_t> samples;
+  samples.reserve(count);
+  using Entry = std::pair<double, std::uint32_t>;
+  // Ties broken towards the lower vertex id, so sampling is deterministic.
+  auto lower_priority = [](const Entry& a, const Entry& b) {
+    return a.first < b.first || (a.first == b.first && a.second > b.second);
+  };
+  std::priority_queue<Entry, std::vector<Entry>, decltype(lower_priority)> farthest(lower_priority);
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    if (!mesh.is_isolated_vertex(v)) farthest.push({kInfinity, v});
+  }
+  FastMarchingSolver fmm(mesh, geometry);
+  ExactGeodesicSolver exact(mesh, geometry);
+  std::vector<std::uint32_t> lowered;
+  covering_radius = kInfinity;
+  while (samples.size() < count && !farthest.empty()) {
+    const auto [d, v] = farthest.top();
+    farthest.pop();
+    if (d != field[v] || d == 0) continue;  // stale entry, or already a sample
+    samples.push_back(v);
+    field[v] = 0;
+    lowered.clear();
+    if (method == SamplingMethod::Exact) {
+      // Only vertices closer than the current farthest distance can be lowered.
+      ExactGeodesicOptions options;
+      options.max_distance = std::isfinite(d) ? d : kInfinity;
+      exact.solve(SurfacePoint::vertex(v), options);
+      for (std::uint32_t u : exact.touched_vertices()) {
+        const double du = exact.distance(u);
+        if (du < field[u]) {
+          field[u] = du;
+          lowered.push_back(u);
+        }
+      }
+    } else {
+      fmm.lower(field, SurfacePoint::vertex(v));
+      const auto& by_fmm = fmm.lowered_vertices();
+      lowered.assign(by_fmm.begin(), by_fmm.end());
+    }
+    for (std::uint32_t u : lowered) {
+      if (field[u] > 0) farthest.push({field[u], u});
+    }
+    if (progress && (samples.size() % 64 == 0 || samples.size() == count)) {
+      progress("sampling", static_cast<double>(samples.size()) / count);
+    }
+  }
+  // The covering radius: the farthest any vertex is from its nearest sample.
+  covering_radius = 0;
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    if (!mesh.is_isolated_vertex(v) && std::isfinite(field[v])) {
+      covering_radius = std::max(covering_radius, field[v]);
+    }
+  }
+  return samples;
+}
+
+}  // namespace
+
+ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                                     const ProximityGraphOptions& options,
+                                     const BuildProgress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  auto [default_samples, default_neighbors] = default_graph_size(mesh.num_faces());
+  std::size_t usable_vertices = 0;
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+    usable_vertices += mesh.is_isolated_vertex(v) ? 0 : 1;
+  }
+  std::uint32_t num_samples = options.num_samples ? options.num_samples : default_samples;
+  const std::uint32_t neighbors = options.neighbors ? options.neighbors : default_neighbors;
+  if (options.num_samples > usable_vertices) {
+    throw InvalidInput("TooManySamples", "asked for " + std::to_string(options.num_samples) +
+                                             " samples but the mesh has only " +
+                                             std::to_string(usable_vertices) +
+                                             " vertices in faces");
+  }
+  num_samples = static_cast<std::uint32_t>(std::min<std::size_t>(num_samples, usable_vertices));
+  if (neighbors == 0 || num_samples == 0) {
+    throw InvalidInput("BadGraphSize", "samples and neighbours must be positive");
+  }
+
+  ProximityGraph graph;
+  graph.num_vertices = static_cast<std::uint32_t>(mesh.num_vertices());
+  graph.neighbors = neighbors;
+
+  SamplingMethod method = options.sampling;
+  if (method == SamplingMethod::Automatic) {
+    const auto [quality, obtuse] = mesh_quality(mesh, geometry);
+    method = quality < options.poor_quality_threshold || obtuse > options.obtuse_fraction_threshold
+                 ? SamplingMethod::Exact
+                 : SamplingMethod::FastMarching;
+  }
+  graph.stats.sampling_used = method;
+  double fps_radius = 0;
+  graph.sample_vertex =
+      farthest_point_samples(mesh, geometry, num_samples, method, fps_radius, progress);
+  graph.stats.sampling_seconds = seconds_since(start);
+  const auto solves_start = std::chrono::steady_clock::now();
+
+  // Local exact solves (paper §2.2): from each sample until its m_P nearest samples are settled.
+  const auto n = static_cast<std::uint32_t>(graph.sample_vertex.size());
+  std::vector<SurfacePoint> targets(n);
+  for (std::uint32_t i = 0; i < n; ++i) targets[i] = SurfacePoint::vertex(graph.sample_vertex[i]);
+  std::vector<std::vector<LocalEdge>> edges_of(n);
+  std::vector<std::vector<std::pair<std::uint32_t, float>>> covers_of(n);  // (vertex, distance)
+  std::size_t done = 0;
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+#pragma omp parallel num_threads(threads)
+  {
+    ExactGeodesicSolver solver(mesh, geometry);
+    ExactGeodesicOptions local;
+    local.stop_after_targets = std::min<std::size_t>(neighbors + 1, n);
+#pragma omp for schedule(dynamic, 16)
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const GeodesicSource source{targets[i], 0.0};
+      solver.solve(std::span<const GeodesicSource>(&source, 1), targets, local);
+      const auto& settled = solver.settled_targets();
+      for (std::size_t k = 0; k < settled.size(); ++k) {
+        const std::uint32_t j = settled[k];
+        if (j == i) continue;
+        const GeodesicPath path = solver.path_to(targets[j]);
+        const double d = solver.settled_target_distances()[k];
+        edges_of[i].push_back({i, j, d, to_graph_direction(path.direction_at_source)});
+        edges_of[i].push_back({j, i, d, to_graph_direction(path.direction_at_target)});
+      }
+      for (std::uint32_t v : solver.touched_vertices()) {
+        const double d = solver.distance(v);
+        if (d < kInfinity) covers_of[i].push_back({v, static_cast<float>(d)});
+      }
+      if (progress) {
+#pragma omp critical(geoprox_graph_progress)
+        {
+          ++done;
+          if (done % 64 == 0 || done == n) progress("local solves", static_cast<double>(done) / n);
+        }
+      }
+    }
+  }
+
+  // The graph must be connected within each mesh component (the paper's R >= 2r argument
+  // guarantees it for dense enough samples; thin parts can still split it). Join every stray
+  // piece to the nearest sample outside it, which is a genuine geodesic edge.
+  {
+    std::size_t component_count = 0;
+    const std::vector<std::uint32_t> component = vertex_components(mesh, component_count);
+    ExactGeodesicSolver solver(mesh, geometry);
+    while (true) {
+      UnionFind pieces(n);
+      for (std::uint32_t i = 0; i < n; ++i) {
+        for (const LocalEdge& e : edges_of[i]) pieces.unite(e.from, e.to);
+      }
+      // A sample is stray when its piece differs from that of its component's first sample.
+      std::vector<std::uint32_t> component_root(component_count, UINT32_MAX);
+      std::int32_t stray = -1;
+      for (std::uint32_t i = 0; i < n && stray < 0; ++i) {
+        std::uint32_t& root = component_root[component[graph.sample_vertex[i]]];
+        if (root == UINT32_MAX) root = pieces.find(i);
+        if (pieces.find(i) != root) stray = static_cast<std::int32_t>(i);
+      }
+      if (stray < 0) break;
+      const auto i = static_cast<std::uint32_t>(stray);
+      std::vector<SurfacePoint> others;
+      std::vector<std::uint32_t> other_index;
+      for (std::uint32_t j = 0; j < n; ++j) {
+        if (pieces.find(j) != pieces.find(i) &&
+            component[graph.sample_vertex[j]] == component[graph.sample_vertex[i]]) {
+          others.push_back(targets[j]);
+          other_index.push_back(j);
+        }
+      }
+      ExactGeodesicOptions nearest;
+      nearest.stop_after_targets = 1;
+      const GeodesicSource source{targets[i], 0.0};
+      solver.solve(std::span<const GeodesicSource>(&source, 1), others, nearest);
+      GEOPROX_ASSERT(!solver.settled_targets().empty(), "component has no reachable sample");
+      const std::uint32_t j = other_index[solver.settled_targets()[0]];
+      const GeodesicPath path = solver.path_to(targets[j]);
+      const double d = solver.settled_target_distances()[0];
+      edges_of[i].push_back({i, j, d, to_graph_direction(path.direction_at_source)});
+      edges_of[i].push_back({j, i, d, to_graph_direction(path.direction_at_target)});
+    }
+  }
+
+  // Symmetric CSR: i ~ j if either listed the other; when both did, the solve of the smaller
+  // index wins so the result is independent of thread scheduling.
+  std::vector<LocalEdge> all;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    for (const LocalEdge& e : edges_of[i]) all.push_back(e);
+  }
+  std::stable_sort(all.begin(), all.end(), [](const LocalEdge& a, const LocalEdge& b) {
+    return a.from != b.from ? a.from < b.from : a.to < b.to;
+  });
+  all.erase(std::unique(all.begin(), all.end(),
+                        [](const LocalEdge& a, const LocalEdge& b) {
+                          return a.from == b.from && a.to == b.to;
+                        }),
+            all.end());
+  graph.edge_offsets.assign(n + 1, 0);
+  for (const LocalEdge& e : all) ++graph.edge_offsets[e.from + 1];
+  for (std::uint32_t i = 0; i < n; ++i) graph.edge_offsets[i + 1] += graph.edge_offsets[i];
+  graph.edge_target.reserve(all.size());
+  graph.edge_distance.reserve(all.size());
+  graph.edge_direction.reserve(all.size());
+  graph.longest_edge = 0;
+  for (const LocalEdge& e : all) {
+    graph.edge_target.push_back(e.to);
+    graph.edge_distance.push_back(e.distance);
+    graph.edge_direction.push_back(e.direction);
+    graph.longest_edge = std::max(graph.longest_edge, e.distance);
+  }
+
+  // Per-vertex cover table, rows sorted by sample for determinism.
+  graph.cover_offsets.assign(mesh.num_vertices() + 1, 0);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    for (const auto& [v, d] : covers_of[i]) ++graph.cover_offsets[v + 1];
+  }
+  for (std::size_t v = 0; v < mesh.num_vertices(); ++v) {
+    graph.cover_offsets[v + 1] += graph.cover_offsets[v];
+  }
+  graph.cover_sample.resize(graph.cover_offsets.back());
+  graph.cover_distance.resize(graph.cover_offsets.back());
+  {
+    std::vector<std::uint32_t> fill(graph.cover_offsets.begin(), graph.cover_offsets.end() - 1);
+    for (std::uint32_t i = 0; i < n; ++i) {  // increasing i: rows come out sorted by sample
+      for (const auto& [v, d] : covers_of[i]) {
+        graph.cover_sample[fill[v]] = i;
+        graph.cover_distance[fill[v]] = d;
+        ++fill[v];
+      }
+    }
+  }
+  // The covering radius from exact distances where the cover table has them.
+  double r = 0;
+  bool all_covered = true;
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+    if (mesh.is_isolated_vertex(v)) continue;
+    const std::uint32_t b = graph.cover_offsets[v], e = graph.cover_offsets[v + 1];
+    if (b == e) {
+      all_covered = false;
+      continue;
+    }
+    float best = std::numeric_limits<float>::infinity();
+    for (std::uint32_t k = b; k < e; ++k) best = std::min(best, graph.cover_distance[k]);
+    r = std::max(r, static_cast<double>(best));
+  }
+  graph.covering_radius = all_covered ? r : std::max(r, fps_radius);
+
+  std::size_t components = 0;
+  vertex_components(mesh, components);
+  graph.stats.components = components;
+  graph.stats.local_solve_seconds = seconds_since(solves_start);
+  return graph;
+}
+
+}  // namespace geoprox

@@ -1,0 +1,116 @@
+// The geodesic proximity graph of "Lightweight preprocessing and fast query of geodesic distance
+// via proximity graph" (§2, building the graph): n_P samples by farthest-point sampling, each
+// linked to its m_P nearest samples by exact local geodesics.
+//
+// Samples are mesh vertices (farthest-point sampling picks the farthest vertex). For every graph
+// edge i -> j the graph keeps the exact geodesic distance and the unit direction in which the
+// geodesic leaves sample i towards j (in the frame of one of i's faces, see FaceDirection), so
+// paths can be traced back from the stored end directions. The local solve from each sample
+// also gives exact distances from that sample to every vertex of its disk; each vertex keeps the
+// samples covering it and those distances (the per-vertex cover table of §3.2).
+//
+// ProximityGraphView is what queries read: plain spans, over vectors owned by a ProximityGraph
+// or over a memory-mapped graph file (core/graph_file.h), never copied.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/intrinsic_geometry.h"
+#include "core/mesh.h"
+
+namespace geoprox {
+
+enum class SamplingMethod : std::uint8_t {
+  Automatic = 0,    ///< fast marching unless the mesh is poor (see poor_quality_threshold)
+  FastMarching = 1, ///< farthest-point sampling on fast-marching distances
+  Exact = 2,        ///< farthest-point sampling on exact distances (slower, for poor meshes)
+};
+
+struct ProximityGraphOptions {
+  /// n_P, number of samples; 0 picks the paper's Table 1 value for the face count.
+  std::uint32_t num_samples = 0;
+  /// m_P, nearest samples each sample is linked to; 0 picks the Table 1 value.
+  std::uint32_t neighbors = 0;
+  SamplingMethod sampling = SamplingMethod::Automatic;
+  /// Automatic sampling switches to exact distances when the mean Lo quality of the faces is
+  /// below this (an equilateral triangle has 0.1443; the paper's poor model has 0.065) or more
+  /// than `obtuse_fraction_threshold` of the faces are obtuse.
+  double poor_quality_threshold = 0.07;
+  double obtuse_fraction_threshold = 0.5;
+  /// OpenMP threads for the local solves; 0 uses OpenMP's default. The graph is identical for
+  /// every thread count.
+  int threads = 0;
+};
+
+/// Table 1 of the paper, interpolated linearly in the face count between its rows and clamped
+/// at its ends: (n_P, m_P) for a mesh of `faces` faces.
+std::pair<std::uint32_t, std::uint32_t> default_graph_size(std::size_t faces);
+
+/// A direction stored by the graph: unit vector (x, y) in the frame of face `face`.
+struct GraphDirection {
+  std::uint32_t face = 0;
+  float x = 1, y = 0;
+};
+
+struct ProximityGraphView {
+  std::uint32_t num_vertices = 0;
+  std::uint32_t num_samples = 0;
+  std::uint32_t neighbors = 0;        ///< m_P it was built with
+  double longest_edge = 0;            ///< R: longest graph edge (mesh units)
+  double covering_radius = 0;         ///< r: radius of the largest empty disk (mesh units)
+
+  std::span<const std::uint32_t> sample_vertex;        ///< [num_samples] vertex of sample i
+  std::span<const std::uint32_t> edge_offsets;         ///< [num_samples + 1] CSR rows
+  std::span<const std::uint32_t> edge_target;          ///< [edges] sample j of edge i -> j
+  std::span<const double> edge_distance;               ///< [edges] exact geodesic |ij|
+  std::span<const GraphDirection> edge_direction;      ///< [edges] direction at i towards j
+  std::span<const std::uint32_t> cover_offsets;        ///< [num_vertices + 1] CSR rows
+  std::span<const std::uint32_t> cover_sample;         ///< [covers] sample covering the vertex
+  std::span<const float> cover_distance;               ///< [covers] exact distance to it
+
+  std::size_t num_edges() const { return edge_target.size(); }
+  /// Theorem 4.2's bound on the relative error of graph distances: 2r / (R - 2r) (infinite
+  /// when R <= 2r).
+  double error_bound() const;
+};
+
+struct ProximityGraphStats {
+  double sampling_seconds = 0;
+  double local_solve_seconds = 0;
+  SamplingMethod sampling_used = SamplingMethod::FastMarching;
+  std::size_t components = 0;
+};
+
+/// Progress of a build: phase name ("sampling", "local solves"), fraction done in [0, 1].
+using BuildProgress = std::function<void(const std::string& phase, double fraction)>;
+
+class ProximityGraph {
+ public:
+  ProximityGraphView view() const;
+
+  std::uint32_t num_vertices = 0;
+  std::uint32_t neighbors = 0;
+  double longest_edge = 0;
+  double covering_radius = 0;
+  std::vector<std::uint32_t> sample_vertex;
+  std::vector<std::uint32_t> edge_offsets;
+  std::vector<std::uint32_t> edge_target;
+  std::vector<double> edge_distance;
+  std::vector<GraphDirection> edge_direction;
+  std::vector<std::uint32_t> cover_offsets;
+  std::vector<std::uint32_t> cover_sample;
+  std::vector<float> cover_distance;
+  ProximityGraphStats stats;
+};
+
+/// Builds the graph (throws InvalidInput for impossible options, e.g. more samples than
+/// vertices).
+ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                                     const ProximityGraphOptions& options = {},
+                                     const BuildProgress& progress = {});
+
+}  // namespace geoprox
