@@ -119,6 +119,7 @@ void ExactGeodesicSolver::push(double key, std::uint32_t item) {
 }
 
 void ExactGeodesicSolver::pop() {
+  ++stats_.queue_pops;
   const QueueEntry last = queue_.back();
   queue_.pop_back();
   const std::size_t n = queue_.size();
@@ -303,8 +304,7 @@ double ExactGeodesicSolver::incoming_angle(std::uint32_t v, std::uint32_t& fan_s
     corner_halfedge = TriangleMesh::prev(w.halfedge);  // c -> a
     const double ax = -lay.cx, ay = -lay.cy, qx = w.sx - lay.cx, qy = w.sy - lay.cy;
     angle_in_corner = std::atan2(cross2(ax, ay, qx, qy), ax * qx + ay * qy);
-    const HalfedgeLayout& corner = g.layout(corner_halfedge);
-    angle_in_corner = std::clamp(angle_in_corner, 0.0, std::atan2(corner.cy, corner.cx));
+    angle_in_corner = std::clamp(angle_in_corner, 0.0, g.corner_angle(corner_halfedge));
   } else if (via_vertex <= kViaSeedBase) {
     const Seed& seed = seeds_[static_cast<std::size_t>(kViaSeedBase - via_vertex)];
     int corner = 0;
@@ -354,8 +354,7 @@ void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
   double phi = 0;
   std::uint32_t h = fan_start;
   do {
-    const HalfedgeLayout& lay = g.layout(h);
-    const double corner = std::atan2(lay.cy, lay.cx);
+    const double corner = g.corner_angle(h);
     // The corner spans [phi, phi + corner]; the shadow may wrap once around the vertex.
     for (double shift : {0.0, total}) {
       const double lo = std::max(phi, shadow_begin - shift);
@@ -893,37 +892,6 @@ struct PathBuilder {
     points.push_back({p, pos});
   }
 };
-
-// Faces that contain a surface point, and its coordinates in the frame of one of them.
-bool point_in_face_frame(const TriangleMesh& mesh, const IntrinsicGeometry& g,
-                         const SurfacePoint& p, std::uint32_t f, Vec2& out) {
-  const Triangle& t = mesh.face(f);
-  switch (p.kind) {
-    case SurfacePoint::Kind::Vertex:
-      for (int i = 0; i < 3; ++i) {
-        if (t[i] == p.id) {
-          out = g.face_corner(f, i);
-          return true;
-        }
-      }
-      return false;
-    case SurfacePoint::Kind::Edge:
-      for (int i = 0; i < 3; ++i) {
-        const std::uint32_t h = 3 * f + static_cast<std::uint32_t>(i);
-        if (mesh.edge_of(h) != p.id) continue;
-        const double along = mesh.edge_halfedge(p.id) == h ? p.t : 1 - p.t;  // from origin(h)
-        const Vec2 a = g.face_corner(f, i), b = g.face_corner(f, (i + 1) % 3);
-        out = {a.x + along * (b.x - a.x), a.y + along * (b.y - a.y)};
-        return true;
-      }
-      return false;
-    case SurfacePoint::Kind::Face:
-      if (p.id != f) return false;
-      out = g.face_point(f, p.bary.data());
-      return true;
-  }
-  return false;
-}
 
 void faces_of(const TriangleMesh& mesh, const SurfacePoint& p, std::vector<std::uint32_t>& out) {
   out.clear();

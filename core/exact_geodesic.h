@@ -63,6 +63,7 @@ struct ExactGeodesicStats {
   std::size_t windows_pruned = 0;      ///< windows dropped at creation or pop by vertex pruning
   std::size_t vertices_reached = 0;    ///< vertices whose distance is final (<= radius_reached)
   std::size_t peak_queue = 0;          ///< largest priority-queue size
+  std::size_t queue_pops = 0;          ///< entries popped (windows, vertices, stale entries)
 };
 
 struct ExactGeodesicOptions {

@@ -67,6 +67,7 @@ void IntrinsicGeometry::build(const Options& options) {
   layout_.resize(nh);
   face_area_.assign(mesh.num_faces(), 0);
   angle_sum_.assign(mesh.num_vertices(), 0);
+  corner_angle_.assign(nh, 0);
   double total = 0;
   for (double l : edge_length_) total += l;
   mean_edge_length_ = edge_length_.empty() ? 0 : total / static_cast<double>(edge_length_.size());
@@ -98,6 +99,7 @@ void IntrinsicGeometry::build(const Options& options) {
     } else {
       angle = std::atan2(lay.cy, lay.cx);
     }
+    corner_angle_[h] = angle;
     angle_sum_[mesh.origin(h)] += angle;
     if (h % 3 == 0) {
       const double area = triangle_area(ab, bc, ca);

@@ -51,6 +51,8 @@ class IntrinsicGeometry {
   const std::vector<double>& edge_lengths() const { return edge_length_; }
   const HalfedgeLayout& layout(std::uint32_t h) const { return layout_[h]; }
   double angle_sum(std::uint32_t v) const { return angle_sum_[v]; }
+  /// Interior angle of h's face at h's origin (radians).
+  double corner_angle(std::uint32_t h) const { return corner_angle_[h]; }
   double face_area(std::uint32_t f) const { return face_area_[f]; }
   double mean_edge_length() const { return mean_edge_length_; }
   /// Vertices through which a shortest path can bend: saddles (angle sum > 2 pi), boundary
@@ -73,6 +75,7 @@ class IntrinsicGeometry {
   std::vector<double> edge_length_;
   std::vector<HalfedgeLayout> layout_;
   std::vector<double> angle_sum_;
+  std::vector<double> corner_angle_;
   std::vector<double> face_area_;
   std::vector<std::uint8_t> pseudo_source_;
   std::vector<std::uint8_t> degenerate_face_;

@@ -92,8 +92,17 @@ struct LocalEdge {
   GraphDirection direction;  // at `from`, towards `to`
 };
 
-GraphDirection to_graph_direction(const FaceDirection& d) {
-  return {d.face, static_cast<float>(d.x), static_cast<float>(d.y)};
+// The direction at `vertex` as the graph stores it. A path leaving a vertex on the long side of
+// a zero-area face is described in the face across it, which does not touch the vertex: such a
+// direction is stored as unknown (a zero vector in one of the vertex's faces) and queries fall
+// back to an exact solve there.
+GraphDirection to_graph_direction(const TriangleMesh& mesh, std::uint32_t vertex,
+                                  const FaceDirection& d) {
+  const Triangle& t = mesh.face(d.face);
+  if (t[0] == vertex || t[1] == vertex || t[2] == vertex) {
+    return {d.face, static_cast<float>(d.x), static_cast<float>(d.y)};
+  }
+  return {mesh.outgoing_halfedges(vertex)[0] / 3, 0.0f, 0.0f};
 }
 
 }  // namespace
@@ -276,8 +285,10 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
         if (j == i) continue;
         const GeodesicPath path = solver.path_to(targets[j]);
         const double d = solver.settled_target_distances()[k];
-        edges_of[i].push_back({i, j, d, to_graph_direction(path.direction_at_source)});
-        edges_of[i].push_back({j, i, d, to_graph_direction(path.direction_at_target)});
+        edges_of[i].push_back(
+            {i, j, d, to_graph_direction(mesh, graph.sample_vertex[i], path.direction_at_source)});
+        edges_of[i].push_back(
+            {j, i, d, to_graph_direction(mesh, graph.sample_vertex[j], path.direction_at_target)});
       }
       for (std::uint32_t v : solver.touched_vertices()) {
         const double d = solver.distance(v);
@@ -332,8 +343,10 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
       const std::uint32_t j = other_index[solver.settled_targets()[0]];
       const GeodesicPath path = solver.path_to(targets[j]);
       const double d = solver.settled_target_distances()[0];
-      edges_of[i].push_back({i, j, d, to_graph_direction(path.direction_at_source)});
-      edges_of[i].push_back({j, i, d, to_graph_direction(path.direction_at_target)});
+      edges_of[i].push_back(
+          {i, j, d, to_graph_direction(mesh, graph.sample_vertex[i], path.direction_at_source)});
+      edges_of[i].push_back(
+          {j, i, d, to_graph_direction(mesh, graph.sample_vertex[j], path.direction_at_target)});
     }
   }
 

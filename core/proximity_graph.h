@@ -50,7 +50,9 @@ struct ProximityGraphOptions {
 /// at its ends: (n_P, m_P) for a mesh of `faces` faces.
 std::pair<std::uint32_t, std::uint32_t> default_graph_size(std::size_t faces);
 
-/// A direction stored by the graph: unit vector (x, y) in the frame of face `face`.
+/// A direction stored by the graph: unit vector (x, y) in the frame of face `face`, a face of
+/// the sample it leaves. (0, 0) means unknown (a sample on the long side of a zero-area face):
+/// a query then falls back to an exact solve.
 struct GraphDirection {
   std::uint32_t face = 0;
   float x = 1, y = 0;

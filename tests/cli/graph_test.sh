@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# End-to-end test of `geoprox build` and `geoprox inspect`: a graph file of the shipped sample
+# mesh, its statistics, verification against the right and a wrong mesh, and damaged files.
+# Usage: bash graph_test.sh GEOPROX_BINARY REPO_ROOT
+set -euo pipefail
+geoprox=${1:?usage: graph_test.sh GEOPROX_BINARY REPO_ROOT}
+root=${2:?usage: graph_test.sh GEOPROX_BINARY REPO_ROOT}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+checks=0
+fail() { echo "FAIL (graph_test.sh): $*" >&2; exit 1; }
+pass() { checks=$((checks + 1)); }
+
+spot="$root/data/meshes/spot.obj"
+[ -f "$spot" ] || fail "sample mesh $spot is missing"
+
+# Build with explicit parameters, twice with different thread counts: identical files.
+"$geoprox" build "$spot" -o "$tmp/a.geoprox" --samples 200 --neighbors 12 --threads 1 -q >"$tmp/build1" 2>"$tmp/err" ||
+  fail "build failed: $(cat "$tmp/err")"
+"$geoprox" build "$spot" -o "$tmp/b.geoprox" --samples 200 --neighbors 12 --threads 2 -q >"$tmp/build2" 2>"$tmp/err" ||
+  fail "build (2 threads) failed: $(cat "$tmp/err")"
+cmp -s "$tmp/a.geoprox" "$tmp/b.geoprox" || fail "1 and 2 threads gave different files"; pass
+grep -q '^samples *200 (m_P 12' "$tmp/build1" || fail "build summary lacks the samples: $(cat "$tmp/build1")"; pass
+[ ! -s "$tmp/err" ] || fail "quiet build wrote to stderr: $(cat "$tmp/err")"; pass
+ls "$tmp" | grep -q tmp && fail "temporary files left behind: $(ls "$tmp")"; pass
+
+# inspect: header and statistics; --verify against the right mesh.
+"$geoprox" inspect "$tmp/a.geoprox" --verify "$spot" >"$tmp/inspect" 2>"$tmp/err" ||
+  fail "inspect failed: $(cat "$tmp/err")"
+grep -q '^samples *200 (m_P 12' "$tmp/inspect" || fail "inspect lacks samples: $(cat "$tmp/inspect")"; pass
+grep -q '^mesh *2930 vertices, 5856 faces' "$tmp/inspect" || fail "inspect lacks mesh counts"; pass
+grep -q '^verify .* matches' "$tmp/inspect" || fail "inspect --verify did not confirm"; pass
+# Every sample has at least m_P neighbours.
+min_degree=$(sed -n 's/^degree *min \([0-9]*\),.*/\1/p' "$tmp/inspect")
+[ "$min_degree" -ge 12 ] || fail "minimum degree $min_degree < 12"; pass
+
+# Built for another mesh: refused, naming the mismatch.
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n' >"$tmp/other.obj"
+set +e
+"$geoprox" inspect "$tmp/a.geoprox" --verify "$tmp/other.obj" >/dev/null 2>"$tmp/err"; rc=$?
+set -e
+[ "$rc" -eq 2 ] || fail "verify against another mesh: exit $rc"; pass
+grep -q 'MeshMismatch' "$tmp/err" || fail "no MeshMismatch: $(cat "$tmp/err")"; pass
+
+# Damaged files: truncated, a flipped byte, not a graph file at all, missing.
+size=$(stat -c %s "$tmp/a.geoprox")
+head -c $((size / 2)) "$tmp/a.geoprox" >"$tmp/cut.geoprox"
+cp "$tmp/a.geoprox" "$tmp/flip.geoprox"
+printf '\xff' | dd of="$tmp/flip.geoprox" bs=1 seek=$((size - 100)) conv=notrunc status=none
+expect_error() {  # FILE REASON
+  set +e
+  "$geoprox" inspect "$1" >/dev/null 2>"$tmp/err"; local rc=$?
+  set -e
+  [ "$rc" -eq 2 ] || fail "inspect $1: exit $rc (expected 2)"
+  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "inspect $1: not one line on stderr: $(cat "$tmp/err")"
+  grep -q "$2" "$tmp/err" || fail "inspect $1: expected $2, got: $(cat "$tmp/err")"
+  pass
+}
+expect_error "$tmp/cut.geoprox" Truncated
+expect_error "$tmp/flip.geoprox" 'ChecksumMismatch\|CorruptGraph'
+expect_error "$spot" ForeignFile
+expect_error "$tmp/missing.geoprox" FileNotFound
+
+# A bad option value is a usage error.
+set +e
+"$geoprox" build "$spot" -o "$tmp/c.geoprox" --sampling nope >/dev/null 2>&1; rc=$?
+set -e
+[ "$rc" -eq 1 ] || fail "--sampling nope: exit $rc (expected 1)"; pass
+
+echo "graph_test.sh: $checks checks passed"
