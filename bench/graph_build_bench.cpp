@@ -13,12 +13,15 @@
 //    (ProximityGraphStats::local_solve_seconds),
 //  - write: write_graph_file (temporary file, fsync, rename, directory fsync),
 //  - total: the three together (build + write);
+//  - cores: process CPU time of the build over its wall time (about the thread count when the
+//    machine is otherwise idle, less when it is shared);
 // and, once: samples, graph edges, cover entries, file size, R, r, the Theorem 4.2 bound, and
-// the open time of the written file (MappedGraphFile::open with checksum, median of 9 opens;
-// the file was just written, so its pages are in the page cache). The runs must produce
-// bit-identical graphs ("same" column). The load average is printed before and after each mesh:
-// the machine may be shared.
+// the open time of the written file (MappedGraphFile::open, median of 9 opens, wall time with
+// and without the checksum and process CPU time with it; the file was just written, so its
+// pages are in the page cache). The runs must produce bit-identical graphs ("same" column).
+// The load average is printed before and after each mesh: the machine may be shared.
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -60,6 +63,12 @@ double seconds_since(Clock::time_point start) {
 std::string base_name(const std::string& path) {
   const std::size_t slash = path.find_last_of('/');
   return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 std::string load_average() {
@@ -130,11 +139,13 @@ struct Row {
   double load_s = 0;
   double sampling_s = 0, solves_s = 0, write_s = 0, total_s = 0;
   double total_min_s = 0, total_max_s = 0;
+  double cores = 0;  ///< build CPU time / build wall time (median)
   std::uint32_t samples = 0, neighbors = 0;
   std::size_t edges = 0, covers = 0;
   std::uint64_t file_bytes = 0;
   double R = 0, r = 0, bound = 0;
-  double open_ms = 0, open_nocheck_ms = 0;
+  double open_ms = 0, open_nocheck_ms = 0;  ///< wall time, median of 9
+  double open_cpu_ms = 0;                    ///< CPU time of the process, with checksum
   SamplingMethod method = SamplingMethod::FastMarching;
   bool deterministic = true;
   std::string load_before, load_after;
@@ -157,10 +168,15 @@ Row bench_mesh(const std::string& path, const Settings& s, const std::string& di
   options.neighbors = s.neighbors;
   const std::string file = dir + "/" + row.name + ".geoprox";
 
-  std::vector<double> sampling, solves, writes, totals;
+  std::vector<double> sampling, solves, writes, totals, cores;
   ProximityGraph first;
   for (int run = 0; run < s.runs; ++run) {
+    const double cpu_start = process_cpu_seconds();
+    const auto build_start = Clock::now();
     ProximityGraph graph = build_proximity_graph(mesh, geometry, options);
+    const double build_wall = seconds_since(build_start);
+    // Cores the build kept busy: below the thread count when the machine is shared.
+    cores.push_back((process_cpu_seconds() - cpu_start) / build_wall);
     const auto write_start = Clock::now();
     write_graph_file(file, mesh, geometry, graph, {SamplingMethod::Automatic, row.name});
     const double write_s = seconds_since(write_start);
@@ -178,6 +194,7 @@ Row bench_mesh(const std::string& path, const Settings& s, const std::string& di
   row.solves_s = median(solves);
   row.write_s = median(writes);
   row.total_s = median(totals);
+  row.cores = median(cores);
   row.total_min_s = *std::min_element(totals.begin(), totals.end());
   row.total_max_s = *std::max_element(totals.begin(), totals.end());
   const ProximityGraphView view = first.view();
@@ -196,10 +213,13 @@ Row bench_mesh(const std::string& path, const Settings& s, const std::string& di
     std::vector<double> opens;
     GraphFileOpenOptions open_options;
     open_options.verify_checksum = checksum;
+    std::vector<double> cpu;
     for (int k = 0; k < 9; ++k) {
+      const double cpu_start = process_cpu_seconds();
       const auto open_start = Clock::now();
       const MappedGraphFile mapped = MappedGraphFile::open(file, open_options);
       opens.push_back(1e3 * seconds_since(open_start));
+      cpu.push_back(1e3 * (process_cpu_seconds() - cpu_start));
       if (mapped.view().num_samples != row.samples) {
         std::fprintf(stderr, "graph_build_bench: %s: reopened file has %u samples, built %u\n",
                      file.c_str(), mapped.view().num_samples, row.samples);
@@ -207,6 +227,7 @@ Row bench_mesh(const std::string& path, const Settings& s, const std::string& di
       }
     }
     (checksum ? row.open_ms : row.open_nocheck_ms) = median(opens);
+    if (checksum) row.open_cpu_ms = median(cpu);
   }
   row.load_after = load_average();
   return row;
@@ -279,17 +300,19 @@ int main(int argc, char** argv) {
   }
 
   std::printf(
-      "\n| mesh | faces | n_P/m_P | sampling | sampling s | solves s | write s | total s | "
-      "edges | covers | file MiB | R | r | bound | open ms | open ms (no checksum) | same |\n"
-      "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+      "\n| mesh | faces | n_P/m_P | sampling | sampling s | solves s | write s | total s | cores | "
+      "edges | covers | file MiB | R | r | bound | open ms | open CPU ms | open ms (no checksum) | "
+      "same |\n"
+      "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
+      "|---|\n");
   for (const Row& r : rows) {
     std::printf(
-        "| %s | %zu | %u/%u | %s | %.2f | %.2f | %.3f | %.2f | %zu | %zu | %.2f | %.4g | %.4g | "
-        "%.3g | %.2f | %.2f | %s |\n",
+        "| %s | %zu | %u/%u | %s | %.2f | %.2f | %.3f | %.2f | %.2f | %zu | %zu | %.2f | %.4g | "
+        "%.4g | %.3g | %.2f | %.2f | %.2f | %s |\n",
         r.name.c_str(), r.faces, r.samples, r.neighbors, method_name(r.method), r.sampling_s,
-        r.solves_s, r.write_s, r.total_s, r.edges, r.covers,
+        r.solves_s, r.write_s, r.total_s, r.cores, r.edges, r.covers,
         static_cast<double>(r.file_bytes) / (1024.0 * 1024.0), r.R, r.r, r.bound, r.open_ms,
-        r.open_nocheck_ms, r.deterministic ? "yes" : "NO");
+        r.open_cpu_ms, r.open_nocheck_ms, r.deterministic ? "yes" : "NO");
   }
   // Growth with the face count: seconds per 100k faces.
   std::printf("\n| mesh | faces | vertices | load s | total s per 100k faces | file bytes | "

@@ -31,6 +31,20 @@ double cross2(double ax, double ay, double bx, double by) { return ax * by - ay 
 // coordinates are nowhere near overflow.
 inline double length2(double x, double y) { return std::sqrt(x * x + y * y); }
 
+}  // namespace
+
+// Length of the path from a window's source to point (px, py) of the face it enters, whose
+// straight line would cross the edge at `x`. Inside the interval that is the straight line; a
+// point seen only within the visibility slack is reached through the interval's nearer end, so
+// that the distance is always a real path and the backtraced polyline has exactly this length.
+double ExactGeodesicSolver::through_window(const Window& w, double x, double px, double py) {
+  if (x >= w.b0 && x <= w.b1) return w.sigma + length2(px - w.sx, py - w.sy);
+  const double end = x < w.b0 ? w.b0 : w.b1;
+  return w.sigma + length2(end - w.sx, w.sy) + length2(px - end, py);
+}
+
+namespace {
+
 // Coordinates of point p (given in the frame of face f, i.e. of halfedge 3f) in the frame of
 // halfedge 3f + i.
 Vec2 face_to_halfedge_frame(const IntrinsicGeometry& g, std::uint32_t f, int i, Vec2 p) {
@@ -659,11 +673,13 @@ void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
   const double end_slack = kVisibilitySlack * L;
 
   // The window may reach its own end vertices.
+  // (Through the interval's end and along the edge, so that the value is a real path.)
   if (w.b0 <= end_slack) {
-    relax_vertex(mesh_->origin(h), w.distance_at(0), self, kViaNone, w.source_index);
+    relax_vertex(mesh_->origin(h), w.distance_at(w.b0) + w.b0, self, kViaNone, w.source_index);
   }
   if (w.b1 >= L - end_slack) {
-    relax_vertex(mesh_->target(h), w.distance_at(L), self, kViaNone, w.source_index);
+    relax_vertex(mesh_->target(h), w.distance_at(w.b1) + (L - w.b1), self, kViaNone,
+                 w.source_index);
   }
 
   if (!(cy - sy > 0)) {
@@ -676,8 +692,8 @@ void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
   // Where the ray from S through the opposite corner c crosses the edge line.
   const double xc = sx + (cx - sx) * (-sy) / (cy - sy);
   if (xc >= w.b0 - end_slack && xc <= w.b1 + end_slack) {
-    relax_vertex(mesh_->opposite_vertex(h), w.sigma + length2(cx - sx, cy - sy), self,
-                 kViaNone, w.source_index);
+    relax_vertex(mesh_->opposite_vertex(h), through_window(w, xc, cx, cy), self, kViaNone,
+                 w.source_index);
   }
 
   // Parameter along segment P0 -> P1 where the ray from S through (x, 0) crosses it.
@@ -829,7 +845,7 @@ ExactGeodesicSolver::Candidate ExactGeodesicSolver::best_in_face(std::uint32_t f
       const double qy = std::max(q.y, 0.0);
       const double x = qy - w.sy > 0 ? w.sx + (q.x - w.sx) * (-w.sy) / (qy - w.sy) : q.x;
       if (x < w.b0 - slack || x > w.b1 + slack) continue;
-      const double d = w.sigma + length2(q.x - w.sx, qy - w.sy);
+      const double d = through_window(w, x, q.x, qy);
       if (d < best.distance) best = {Candidate::Kind::Window, d, wi, {q.x, qy}};
     }
   }
@@ -1023,6 +1039,7 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
   const std::size_t guard_limit = 4 * (windows_.size() + mesh_->num_vertices()) + 16;
   std::size_t guard = 0;
   bool piece_started = false;  // inside a window chain, its target-side direction is recorded
+  bool p_on_edge_end = false;  // p is an end vertex of the window's edge
   while (!done) {
     GEOPROX_ASSERT(++guard < guard_limit, "backtrace does not terminate");
     if (window >= 0) {
@@ -1030,7 +1047,13 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
       const HalfedgeLayout& lay = g.layout(w.halfedge);
       if (!piece_started) {
         piece_started = true;
-        const FaceDirection towards = halfedge_direction(g, w.halfedge, w.sx - p.x, w.sy - p.y);
+        // From a point inside the face the segment runs in this face; from an end vertex of
+        // the window's edge it runs into the face across that edge, behind which S lies.
+        const std::int32_t across = mesh_->twin(w.halfedge);
+        const FaceDirection towards =
+            !p_on_edge_end || across < 0
+                ? halfedge_direction(g, w.halfedge, w.sx - p.x, w.sy - p.y)
+                : halfedge_direction(g, static_cast<std::uint32_t>(across), p.x - w.sx, p.y - w.sy);
         if (!have_target_direction) {
           path.direction_at_target = towards;
           have_target_direction = true;
@@ -1109,6 +1132,7 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
       GEOPROX_ASSERT(via_window >= 0, "reached vertex without a predecessor");
       const Window& w = windows_[static_cast<std::size_t>(via_window)];
       const HalfedgeLayout& lay = g.layout(w.halfedge);
+      p_on_edge_end = v != mesh_->opposite_vertex(w.halfedge);
       if (v == mesh_->origin(w.halfedge)) {
         p = {0, 0};
       } else if (v == mesh_->target(w.halfedge)) {
@@ -1131,8 +1155,54 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
     const std::uint32_t f = faces.empty() ? 0 : faces.front();
     path.direction_at_source = {f, 1, 0};
     path.direction_at_target = {f, 1, 0};
+    return path;
+  }
+  // At a vertex end, give the direction in the face whose corner it points into.
+  const PathPoint& first = path.points.front();
+  const PathPoint& last = path.points.back();
+  if (first.point.kind == SurfacePoint::Kind::Vertex) {
+    path.direction_at_source = into_corner(first.point.id, path.direction_at_source);
+  }
+  if (last.point.kind == SurfacePoint::Kind::Vertex) {
+    path.direction_at_target = into_corner(last.point.id, path.direction_at_target);
   }
   return path;
+}
+
+FaceDirection ExactGeodesicSolver::into_corner(std::uint32_t v, FaceDirection d) const {
+  // Angles around v are intrinsic (sums of corner angles), so turning from one corner into the
+  // next is the unfolding across the edge between them.
+  const IntrinsicGeometry& g = *geometry_;
+  std::uint32_t h = UINT32_MAX;  // outgoing halfedge of v in d.face
+  for (int i = 0; i < 3; ++i) {
+    if (mesh_->face(d.face)[i] == v) h = 3 * d.face + static_cast<std::uint32_t>(i);
+  }
+  if (h == UINT32_MAX) return d;
+  auto edge_angle = [&](std::uint32_t halfedge) {  // direction of halfedge in its face frame
+    const FaceDirection e = halfedge_direction(g, halfedge, 1, 0);
+    return std::atan2(e.y, e.x);
+  };
+  constexpr double kTwoPi = 2 * 3.14159265358979323846;
+  double theta = std::atan2(d.y, d.x) - edge_angle(h);  // from v -> a, counter-clockwise
+  theta = std::remainder(theta, kTwoPi);
+  const double slack = 1e-9;
+  for (std::size_t step = 0; step <= mesh_->outgoing_halfedges(v).size(); ++step) {
+    const double corner = g.corner_angle(h);
+    if (theta >= -slack && theta <= corner + slack) break;
+    if (theta > corner) {  // further counter-clockwise: the next face around v
+      const std::int32_t t = mesh_->twin(TriangleMesh::prev(h));
+      if (t < 0) break;
+      theta -= corner;
+      h = static_cast<std::uint32_t>(t);
+    } else {  // clockwise: the previous face
+      const std::int32_t t = mesh_->twin(h);
+      if (t < 0) break;
+      h = TriangleMesh::next(static_cast<std::uint32_t>(t));
+      theta += g.corner_angle(h);
+    }
+  }
+  const double angle = edge_angle(h) + theta;
+  return {h / 3, std::cos(angle), std::sin(angle)};
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -156,6 +156,8 @@ class ExactGeodesicSolver {
   bool trim_window(Window& w) const;
   bool trim_against_edge_windows(Window& w);
   static double window_key(const Window& w);
+  static double through_window(const Window& w, double x, double px, double py);
+  FaceDirection into_corner(std::uint32_t vertex, FaceDirection direction) const;
   void relax_vertex(std::uint32_t vertex, double distance, std::int32_t via_window,
                     std::int32_t via_vertex, std::uint32_t source_index);
   void push(double key, std::uint32_t item);

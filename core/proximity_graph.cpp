@@ -267,7 +267,8 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   std::vector<SurfacePoint> targets(n);
   for (std::uint32_t i = 0; i < n; ++i) targets[i] = SurfacePoint::vertex(graph.sample_vertex[i]);
   std::vector<std::vector<LocalEdge>> edges_of(n);
-  std::vector<std::vector<std::pair<std::uint32_t, float>>> covers_of(n);  // (vertex, distance)
+  // (vertex, exact distance); kept in double until the covering radius is known.
+  std::vector<std::vector<std::pair<std::uint32_t, double>>> covers_of(n);
   std::size_t done = 0;
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
 #pragma omp parallel num_threads(threads)
@@ -292,7 +293,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
       }
       for (std::uint32_t v : solver.touched_vertices()) {
         const double d = solver.distance(v);
-        if (d < kInfinity) covers_of[i].push_back({v, static_cast<float>(d)});
+        if (d < kInfinity) covers_of[i].push_back({v, d});
       }
       if (progress) {
 #pragma omp critical(geoprox_graph_progress)
@@ -393,30 +394,33 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     for (std::uint32_t i = 0; i < n; ++i) {  // increasing i: rows come out sorted by sample
       for (const auto& [v, d] : covers_of[i]) {
         graph.cover_sample[fill[v]] = i;
-        graph.cover_distance[fill[v]] = d;
+        graph.cover_distance[fill[v]] = static_cast<float>(d);
         ++fill[v];
       }
     }
   }
-  // The covering radius from exact distances where the cover table has them.
+  // The covering radius from the exact distances of the local solves (in double).
+  std::vector<double> nearest_sample(mesh.num_vertices(), kInfinity);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    for (const auto& [v, d] : covers_of[i]) nearest_sample[v] = std::min(nearest_sample[v], d);
+  }
   double r = 0;
   bool all_covered = true;
   for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
     if (mesh.is_isolated_vertex(v)) continue;
-    const std::uint32_t b = graph.cover_offsets[v], e = graph.cover_offsets[v + 1];
-    if (b == e) {
+    if (nearest_sample[v] == kInfinity) {
       all_covered = false;
       continue;
     }
-    float best = std::numeric_limits<float>::infinity();
-    for (std::uint32_t k = b; k < e; ++k) best = std::min(best, graph.cover_distance[k]);
-    r = std::max(r, static_cast<double>(best));
+    r = std::max(r, nearest_sample[v]);
   }
   graph.covering_radius = all_covered ? r : std::max(r, fps_radius);
 
   std::size_t components = 0;
-  vertex_components(mesh, components);
-  graph.stats.components = components;
+  const std::vector<std::uint32_t> component = vertex_components(mesh, components);
+  std::vector<std::uint8_t> has_faces(components, 0);
+  for (const Triangle& t : mesh.faces()) has_faces[component[t[0]]] = 1;
+  graph.stats.components = static_cast<std::size_t>(std::count(has_faces.begin(), has_faces.end(), 1));
   graph.stats.local_solve_seconds = seconds_since(solves_start);
   return graph;
 }

@@ -276,7 +276,7 @@ TEST(FastMarchingInvariants, MonotoneAlongRaysFromTheSource) {
 TEST(FastMarchingInvariants, SymmetricWithinTheSchemeError) {
   // d_s(t) vs d_t(s) on spot: measured worst relative asymmetry 5.4%, mean 0.42%.
   const Loaded* lm = spot();
-  if (!lm) GTEST_SKIP() << "data/meshes/spot.obj not found";
+  ASSERT_TRUE(lm) << "data/meshes/spot.obj not found";
   FastMarchingSolver solver(*lm->mesh, *lm->geometry);
   const auto nv = static_cast<std::uint32_t>(lm->mesh->num_vertices());
   Rng rng(7);
@@ -307,7 +307,7 @@ TEST(FastMarchingInvariants, SymmetricWithinTheSchemeError) {
 
 TEST(FastMarchingInvariants, EarlyStopMatchesTheFullSolveInside) {
   const Loaded* lm = spot();
-  if (!lm) GTEST_SKIP() << "data/meshes/spot.obj not found";
+  ASSERT_TRUE(lm) << "data/meshes/spot.obj not found";
   FastMarchingSolver solver(*lm->mesh, *lm->geometry);
   const GeodesicSource source{SurfacePoint::face(100, 0.2, 0.3, 0.5), 0.0};
   solver.solve(std::span<const GeodesicSource>(&source, 1));
@@ -388,7 +388,7 @@ TEST(FastMarchingInvariants, SeveralSourcesAreTheMinimumNearEachAndNeverAbove) {
          {SurfacePoint::vertex(grid_id(n, 12, 35)), 0.05}},
         95, "grid, 3 sources");
   const Loaded* lm = spot();
-  if (!lm) GTEST_SKIP() << "data/meshes/spot.obj not found";
+  ASSERT_TRUE(lm) << "data/meshes/spot.obj not found";
   check(*lm->mesh, *lm->geometry,
         {{SurfacePoint::vertex(10), 0.0},
          {SurfacePoint::vertex(1500), 0.0},
@@ -457,7 +457,7 @@ TEST(FastMarchingInvariants, ReadsOnlyIntrinsicLengths) {
 
 TEST(FastMarchingInvariants, ReuseGivesIdenticalResults) {
   const Loaded* lm = spot();
-  if (!lm) GTEST_SKIP() << "data/meshes/spot.obj not found";
+  ASSERT_TRUE(lm) << "data/meshes/spot.obj not found";
   FastMarchingSolver solver(*lm->mesh, *lm->geometry);
   solver.solve(SurfacePoint::vertex(3));
   const std::vector<double> first = solver.vertex_distances();
@@ -579,7 +579,7 @@ TEST(FastMarchingLower, EqualsTheMinimumWithAFreshSolveOnAGrid) {
 
 TEST(FastMarchingLower, EqualsTheMinimumWithAFreshSolveOnSpot) {
   const Loaded* lm = spot();
-  if (!lm) GTEST_SKIP() << "data/meshes/spot.obj not found";
+  ASSERT_TRUE(lm) << "data/meshes/spot.obj not found";
   check_lower(*lm->mesh, *lm->geometry, 150, "spot");
 }
 
@@ -624,7 +624,7 @@ TEST(FastMarchingAccuracy, SpotMeanErrorAboutTwoPercentOfExact) {
   // 2.10% with the unfolding (2.25% without); worst beyond 10 edge lengths 7.1%. (armadillo and
   // lucy, in the benchmark: 1.24% and 1.07%.)
   const Loaded* lm = spot();
-  if (!lm) GTEST_SKIP() << "data/meshes/spot.obj not found";
+  ASSERT_TRUE(lm) << "data/meshes/spot.obj not found";
   const TriangleMesh& mesh = *lm->mesh;
   ExactGeodesicSolver exact(mesh, *lm->geometry);
   FastMarchingSolver solver(mesh, *lm->geometry);
