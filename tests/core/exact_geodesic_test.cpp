@@ -166,8 +166,8 @@ enum class Shape { Curved, Planar, Straight };
 /// case for an end point inside a face).
 /// `offset`: the source's offset, included in path.length but not in the polyline.
 /// `conditioning` widens the checks that compare the intrinsic path with the 3D positions
-/// (polyline length, directions): on slivers and caps the layout rebuilt from rounded edge lengths
-/// differs from the 3D triangle by up to ~1e-8 relative, though distances stay exact.
+/// (polyline length, directions), for meshes whose intrinsic lengths are not those of the 3D
+/// triangles; every mesh here passes with 1 (slivers and caps included).
 void check_path(const TriangleMesh& mesh, const GeodesicPath& path, const SurfacePoint& source,
                 const SurfacePoint& target, double expected, double scale, Shape shape,
                 Tally& tally, const std::string& ctx, double offset = 0, double conditioning = 1) {
@@ -981,22 +981,22 @@ TEST(ExactGeodesicRobustness, NeedleStripExact) {
 }
 
 TEST(ExactGeodesicRobustness, SliverColumnsRobust) {
-  check_robust(sliver_columns(), sliver_points(), "sliver columns", 1000);
+  check_robust(sliver_columns(), sliver_points(), "sliver columns");
 }
 
 TEST(ExactGeodesicRobustness, SliverColumnsExact) {
   const TestMesh tm = sliver_columns();
   for (const SurfacePoint& s : sliver_points()) {
-    check_single_source(tm, s, euclidean_from(*tm.mesh, s), "sliver columns", {Shape::Straight, 1.0, 6, 7, 1000});
+    check_single_source(tm, s, euclidean_from(*tm.mesh, s), "sliver columns", {Shape::Straight, 1.0, 6});
   }
 }
 
-TEST(ExactGeodesicRobustness, CapTrianglesRobust) { check_robust(cap_mesh(), cap_points(), "cap grid", 100); }
+TEST(ExactGeodesicRobustness, CapTrianglesRobust) { check_robust(cap_mesh(), cap_points(), "cap grid"); }
 
 TEST(ExactGeodesicRobustness, CapTrianglesExact) {
   const TestMesh tm = cap_mesh();
   for (const SurfacePoint& s : cap_points()) {
-    check_single_source(tm, s, euclidean_from(*tm.mesh, s), "cap grid", {Shape::Straight, 1.0, 10, 7, 100});
+    check_single_source(tm, s, euclidean_from(*tm.mesh, s), "cap grid", {Shape::Straight, 1.0});
   }
 }
 
