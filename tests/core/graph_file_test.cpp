@@ -25,12 +25,15 @@
 
 #include "core/errors.h"
 #include "tests/core/test_meshes.h"
+#include "tests/core/test_support.h"
 
 namespace geoprox {
 namespace {
 
 namespace fs = std::filesystem;
 namespace tm = test_meshes;
+using test_support::expect_same_graph;
+using test_support::same_bits;
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -153,12 +156,6 @@ ProximityGraph synthetic_graph(const TriangleMesh& mesh, const IntrinsicGeometry
   return g;
 }
 
-template <typename T, typename U>
-bool same_bits(std::span<const T> a, const std::vector<U>& b) {
-  static_assert(sizeof(T) == sizeof(U));
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
-
 std::string reason_of_open(const std::string& path, bool verify_checksum = true) {
   try {
     MappedGraphFile::open(path, {.verify_checksum = verify_checksum});
@@ -211,19 +208,7 @@ TEST(GraphFile, BinaryRoundTripIsBitwise) {
   const ProximityGraphView v = file.view();
   const ProximityGraph& g = fx.graph;
 
-  EXPECT_EQ(v.num_vertices, g.num_vertices);
-  EXPECT_EQ(v.num_samples, g.sample_vertex.size());
-  EXPECT_EQ(v.neighbors, g.neighbors);
-  EXPECT_EQ(v.longest_edge, g.longest_edge);
-  EXPECT_EQ(v.covering_radius, g.covering_radius);
-  EXPECT_TRUE(same_bits(v.sample_vertex, g.sample_vertex));
-  EXPECT_TRUE(same_bits(v.edge_offsets, g.edge_offsets));
-  EXPECT_TRUE(same_bits(v.edge_target, g.edge_target));
-  EXPECT_TRUE(same_bits(v.edge_distance, g.edge_distance));
-  EXPECT_TRUE(same_bits(v.edge_direction, g.edge_direction));
-  EXPECT_TRUE(same_bits(v.cover_offsets, g.cover_offsets));
-  EXPECT_TRUE(same_bits(v.cover_sample, g.cover_sample));
-  EXPECT_TRUE(same_bits(v.cover_distance, g.cover_distance));
+  expect_same_graph(v, g);
   EXPECT_TRUE(same_bits(file.faces(), fx.cube.mesh->faces()));
   EXPECT_TRUE(same_bits(file.positions(), fx.cube.mesh->positions()));
   EXPECT_TRUE(same_bits(file.edge_lengths(), fx.cube.geometry->edge_lengths()));

@@ -39,20 +39,18 @@
 #include "core/graph_file.h"
 #include "core/mesh_io.h"
 #include "tests/core/test_meshes.h"
+#include "tests/core/test_support.h"
 
 namespace geoprox {
 namespace {
 
 namespace fs = std::filesystem;
 using namespace test_meshes;
+using test_support::expect_same_graph;
+using test_support::fmt;
+using test_support::same_bits;
 
 constexpr double kRel = 1e-9;
-
-std::string fmt(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
-  return buf;
-}
 
 /// |got - expected| <= rel * max(|expected|, floor).
 bool close_rel(double got, double expected, double rel, double floor) {
@@ -533,18 +531,6 @@ double max_finite(const TriangleMesh& mesh, const std::vector<double>& field) {
   return r;
 }
 
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
-}
-
-template <class T>
-bool same_bits(std::span<const T> a, const std::vector<T>& b) {
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Table 1
 
@@ -898,22 +884,7 @@ TEST(ProximityGraph, RoundTripThroughGraphFile) {
     write_graph_file(path, *m.mesh, *m.geometry, g, {SamplingMethod::Automatic, "spot.obj"});
     const MappedGraphFile file = MappedGraphFile::open(path);
     file.verify_mesh(*m.mesh, *m.geometry);
-    const ProximityGraphView v = file.view();
-    EXPECT_EQ(v.num_vertices, g.num_vertices);
-    EXPECT_EQ(v.num_samples, g.sample_vertex.size());
-    EXPECT_EQ(v.neighbors, g.neighbors);
-    EXPECT_EQ(std::bit_cast<std::uint64_t>(v.longest_edge),
-              std::bit_cast<std::uint64_t>(g.longest_edge));
-    EXPECT_EQ(std::bit_cast<std::uint64_t>(v.covering_radius),
-              std::bit_cast<std::uint64_t>(g.covering_radius));
-    EXPECT_TRUE(same_bits(v.sample_vertex, g.sample_vertex));
-    EXPECT_TRUE(same_bits(v.edge_offsets, g.edge_offsets));
-    EXPECT_TRUE(same_bits(v.edge_target, g.edge_target));
-    EXPECT_TRUE(same_bits(v.edge_distance, g.edge_distance));
-    EXPECT_TRUE(same_bits(v.edge_direction, g.edge_direction));
-    EXPECT_TRUE(same_bits(v.cover_offsets, g.cover_offsets));
-    EXPECT_TRUE(same_bits(v.cover_sample, g.cover_sample));
-    EXPECT_TRUE(same_bits(v.cover_distance, g.cover_distance));
+    expect_same_graph(file.view(), g);
     EXPECT_EQ(file.params().sampling, g.stats.sampling_used);
     EXPECT_EQ(file.params().num_samples, g.sample_vertex.size());
     EXPECT_EQ(file.params().neighbors, g.neighbors);

@@ -1,0 +1,57 @@
+// Small helpers shared by the core test files (formatting, bitwise comparison of arrays and of
+// proximity graphs). Header-only, like test_meshes.h.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/proximity_graph.h"
+
+namespace geoprox::test_support {
+
+/// A double at full precision, for failure messages.
+inline std::string fmt(double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+/// Same length and the same bytes (element types of the same size).
+template <typename T, typename U>
+bool same_bits(std::span<const T> a, const std::vector<U>& b) {
+  static_assert(sizeof(T) == sizeof(U));
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+template <typename T>
+bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
+  return same_bits(std::span<const T>(a), b);
+}
+
+/// Every array and scalar of the view equals the graph's, bit for bit.
+inline void expect_same_graph(const ProximityGraphView& v, const ProximityGraph& g) {
+  EXPECT_EQ(v.num_vertices, g.num_vertices);
+  EXPECT_EQ(v.num_samples, g.sample_vertex.size());
+  EXPECT_EQ(v.neighbors, g.neighbors);
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(v.longest_edge),
+            std::bit_cast<std::uint64_t>(g.longest_edge));
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(v.covering_radius),
+            std::bit_cast<std::uint64_t>(g.covering_radius));
+  EXPECT_TRUE(same_bits(v.sample_vertex, g.sample_vertex));
+  EXPECT_TRUE(same_bits(v.edge_offsets, g.edge_offsets));
+  EXPECT_TRUE(same_bits(v.edge_target, g.edge_target));
+  EXPECT_TRUE(same_bits(v.edge_distance, g.edge_distance));
+  EXPECT_TRUE(same_bits(v.edge_direction, g.edge_direction));
+  EXPECT_TRUE(same_bits(v.cover_offsets, g.cover_offsets));
+  EXPECT_TRUE(same_bits(v.cover_sample, g.cover_sample));
+  EXPECT_TRUE(same_bits(v.cover_distance, g.cover_distance));
+}
+
+}  // namespace geoprox::test_support
