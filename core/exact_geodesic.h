@@ -2,12 +2,15 @@
 // algorithm on the discrete geodesic problem", ACM TOG 28(4), 2009 (ICH), with the windows
 // processed in order of their minimum distance (as in Mitchell, Mount & Papadimitriou 1987 and
 // Surazhsky et al. 2005) so a solve can stop early, and with windows trimmed against the
-// vertices' current distances on creation and again when popped.
+// vertices' current distances (ICH's filters) and against the other windows on their edge
+// (MMP's pairwise trimming), on creation and again when popped. docs/exact_geodesic.md has the
+// details and the robustness decisions.
 //
 // A window is an interval of a halfedge through which the straight unfolded segment from one
 // (pseudo-)source S reaches every point; its distance is sigma + |S - x|. Every stored window is
 // a real path, so all distances are upper bounds that become exact once settled. Pseudo-sources
-// are saddle, flat and boundary vertices and corners of degenerate faces.
+// are saddle vertices (emitting only into their shadow), boundary vertices and corners of
+// zero-area faces; flat vertices are passed straight through.
 //
 // Reads only IntrinsicGeometry (edge lengths): positions are used only to report path points.
 #pragma once
