@@ -47,14 +47,24 @@ namespace {
 
 // Coordinates of point p (given in the frame of face f, i.e. of halfedge 3f) in the frame of
 // halfedge 3f + i.
-Vec2 face_to_halfedge_frame(const IntrinsicGeometry& g, std::uint32_t f, int i, Vec2 p) {
+// The frame of halfedge 3f + i seen from the frame of face f: its origin and unit x axis.
+struct HalfedgeAxes {
+  Vec2 origin;
+  double ex, ey;
+};
+HalfedgeAxes halfedge_axes(const IntrinsicGeometry& g, std::uint32_t f, int i) {
+  if (i == 0) return {{0, 0}, 1, 0};
   const Vec2 origin = g.face_corner(f, i);
   const Vec2 to = g.face_corner(f, (i + 1) % 3);
   const double len = g.layout(3 * f + static_cast<std::uint32_t>(i)).length;
+  return {origin, (to.x - origin.x) / len, (to.y - origin.y) / len};
+}
+
+Vec2 face_to_halfedge_frame(const IntrinsicGeometry& g, std::uint32_t f, int i, Vec2 p) {
   if (i == 0) return p;
-  const double ex = (to.x - origin.x) / len, ey = (to.y - origin.y) / len;
-  const double dx = p.x - origin.x, dy = p.y - origin.y;
-  return {dx * ex + dy * ey, cross2(ex, ey, dx, dy)};
+  const HalfedgeAxes a = halfedge_axes(g, f, i);
+  const double dx = p.x - a.origin.x, dy = p.y - a.origin.y;
+  return {dx * a.ex + dy * a.ey, cross2(a.ex, a.ey, dx, dy)};
 }
 
 }  // namespace
@@ -444,9 +454,7 @@ bool ExactGeodesicSolver::trim_window(Window& w) const {
       }
     }
   }
-  if (!(w.b1 > w.b0) && !(w.b1 == w.b0 && L == 0)) {
-    if (w.b1 < w.b0) return false;
-  }
+  if (w.b1 < w.b0) return false;
   // Through the opposite vertex c of the face the window enters.
   const double dc = vertex_estimate(mesh_->opposite_vertex(h));
   if (dc < kInfinity) {
@@ -690,7 +698,7 @@ void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
     return;
   }
   // Where the ray from S through the opposite corner c crosses the edge line.
-  const double xc = sx + (cx - sx) * (-sy) / (cy - sy);
+  const double xc = w.crossing_x(cx, cy);
   if (xc >= w.b0 - end_slack && xc <= w.b1 + end_slack) {
     relax_vertex(mesh_->opposite_vertex(h), through_window(w, xc, cx, cy), self, kViaNone,
                  w.source_index);
@@ -843,7 +851,7 @@ ExactGeodesicSolver::Candidate ExactGeodesicSolver::best_in_face(std::uint32_t f
       const Window& w = windows_[static_cast<std::size_t>(wi)];
       if (w.key == kInfinity) continue;
       const double qy = std::max(q.y, 0.0);
-      const double x = qy - w.sy > 0 ? w.sx + (q.x - w.sx) * (-w.sy) / (qy - w.sy) : q.x;
+      const double x = w.crossing_x(q.x, qy);
       if (x < w.b0 - slack || x > w.b1 + slack) continue;
       const double d = through_window(w, x, q.x, qy);
       if (d < best.distance) best = {Candidate::Kind::Window, d, wi, {q.x, qy}};
@@ -937,11 +945,8 @@ FaceDirection halfedge_direction(const IntrinsicGeometry& g, std::uint32_t h, do
   dx /= len;
   dy /= len;
   if (i == 0) return {f, dx, dy};
-  const Vec2 origin = g.face_corner(f, i);
-  const Vec2 to = g.face_corner(f, (i + 1) % 3);
-  const double l = length2(to.x - origin.x, to.y - origin.y);
-  const double ex = (to.x - origin.x) / l, ey = (to.y - origin.y) / l;
-  return {f, dx * ex - dy * ey, dx * ey + dy * ex};
+  const HalfedgeAxes a = halfedge_axes(g, f, i);
+  return {f, dx * a.ex - dy * a.ey, dx * a.ey + dy * a.ex};
 }
 
 FaceDirection reversed(FaceDirection d) { return {d.face, -d.x, -d.y}; }
@@ -1060,9 +1065,7 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
         }
       }
       // Where the segment from p towards the unfolded source crosses the window's edge.
-      double x = p.x;
-      if (p.y - w.sy > 0) x = p.x + (w.sx - p.x) * (p.y / (p.y - w.sy));
-      x = std::clamp(x, w.b0, w.b1);
+      const double x = std::clamp(w.crossing_x(p.x, p.y), w.b0, w.b1);
       builder.add(point_on_halfedge(*mesh_, w.halfedge, x, lay.length));
       if (w.parent >= 0) {
         const Window& parent = windows_[static_cast<std::size_t>(w.parent)];

@@ -61,7 +61,7 @@ struct GeodesicPath {
 
 struct ExactGeodesicStats {
   std::size_t windows_created = 0;     ///< windows stored after creation-time pruning
-  std::size_t pseudo_source_windows = 0;  ///< of which unfolded from a pseudo-source vertex
+  std::size_t pseudo_source_windows = 0;  ///< of which emitted directly by a (pseudo-)source
   std::size_t windows_propagated = 0;  ///< windows popped and unfolded into the next face
   std::size_t windows_pruned = 0;      ///< windows dropped at creation or pop by vertex pruning
   std::size_t vertices_reached = 0;    ///< vertices whose distance is final (<= radius_reached)
@@ -134,6 +134,11 @@ class ExactGeodesicSolver {
     bool propagated;        // unfolded into the next face already (never trimmed after that)
 
     double distance_at(double x) const { return sigma + std::sqrt((x - sx) * (x - sx) + sy * sy); }
+    /// Where the straight line from point (px, py), py >= 0, towards S crosses the edge's line
+    /// (px itself when both lie on that line).
+    double crossing_x(double px, double py) const {
+      return py - sy > 0 ? sx + (px - sx) * (-sy) / (py - sy) : px;
+    }
   };
 
   struct QueueEntry {

@@ -7,12 +7,14 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <queue>
 #include <string>
 
 #include "core/errors.h"
 #include "core/exact_geodesic.h"
 #include "core/fast_marching.h"
+#include "core/mesh_report.h"
 
 namespace geoprox {
 
@@ -29,25 +31,6 @@ constexpr TableRow kTable1[] = {{10'000, 1300, 22},  {20'000, 1500, 21},  {50'00
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// Mean Lo quality and fraction of obtuse faces: when fast marching cannot be trusted.
-std::pair<double, double> mesh_quality(const TriangleMesh& mesh, const IntrinsicGeometry& g) {
-  double quality = 0;
-  std::size_t obtuse = 0;
-  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
-    double squares = 0;
-    bool has_obtuse = false;
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      const HalfedgeLayout& lay = g.layout(3 * f + i);
-      squares += lay.length * lay.length;
-      if (lay.cx < 0) has_obtuse = true;  // the angle at this halfedge's origin is obtuse
-    }
-    quality += squares > 0 ? g.face_area(f) / squares : 0;
-    obtuse += has_obtuse ? 1 : 0;
-  }
-  const auto nf = static_cast<double>(mesh.num_faces());
-  return {quality / nf, static_cast<double>(obtuse) / nf};
 }
 
 class UnionFind {
@@ -175,8 +158,14 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
   for (std::uint32_t v = 0; v < nv; ++v) {
     if (!mesh.is_isolated_vertex(v)) farthest.push({kInfinity, v});
   }
-  FastMarchingSolver fmm(mesh, geometry);
-  ExactGeodesicSolver exact(mesh, geometry);
+  // Only the solver of the chosen method is built: each holds per-vertex scratch.
+  std::optional<FastMarchingSolver> fmm;
+  std::optional<ExactGeodesicSolver> exact;
+  if (method == SamplingMethod::Exact) {
+    exact.emplace(mesh, geometry);
+  } else {
+    fmm.emplace(mesh, geometry);
+  }
   std::vector<std::uint32_t> lowered;
   covering_radius = kInfinity;
   while (samples.size() < count && !farthest.empty()) {
@@ -190,17 +179,17 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
       // Only vertices closer than the current farthest distance can be lowered.
       ExactGeodesicOptions options;
       options.max_distance = std::isfinite(d) ? d : kInfinity;
-      exact.solve(SurfacePoint::vertex(v), options);
-      for (std::uint32_t u : exact.touched_vertices()) {
-        const double du = exact.distance(u);
+      exact->solve(SurfacePoint::vertex(v), options);
+      for (std::uint32_t u : exact->touched_vertices()) {
+        const double du = exact->distance(u);
         if (du < field[u]) {
           field[u] = du;
           lowered.push_back(u);
         }
       }
     } else {
-      fmm.lower(field, SurfacePoint::vertex(v));
-      const auto& by_fmm = fmm.lowered_vertices();
+      fmm->lower(field, SurfacePoint::vertex(v));
+      const auto& by_fmm = fmm->lowered_vertices();
       lowered.assign(by_fmm.begin(), by_fmm.end());
     }
     for (std::uint32_t u : lowered) {
@@ -248,10 +237,16 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   graph.num_vertices = static_cast<std::uint32_t>(mesh.num_vertices());
   graph.neighbors = neighbors;
 
+  // The validation report gives both the quality that decides when fast marching cannot be
+  // trusted and the number of face components.
+  const MeshReport report = compute_mesh_report(mesh, geometry);
+  graph.stats.components = report.components;
   SamplingMethod method = options.sampling;
   if (method == SamplingMethod::Automatic) {
-    const auto [quality, obtuse] = mesh_quality(mesh, geometry);
-    method = quality < options.poor_quality_threshold || obtuse > options.obtuse_fraction_threshold
+    const double obtuse =
+        static_cast<double>(report.obtuse_faces) / static_cast<double>(report.faces);
+    method = report.lo_quality_mean < options.poor_quality_threshold ||
+                     obtuse > options.obtuse_fraction_threshold
                  ? SamplingMethod::Exact
                  : SamplingMethod::FastMarching;
   }
@@ -416,11 +411,6 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   }
   graph.covering_radius = all_covered ? r : std::max(r, fps_radius);
 
-  std::size_t components = 0;
-  const std::vector<std::uint32_t> component = vertex_components(mesh, components);
-  std::vector<std::uint8_t> has_faces(components, 0);
-  for (const Triangle& t : mesh.faces()) has_faces[component[t[0]]] = 1;
-  graph.stats.components = static_cast<std::size_t>(std::count(has_faces.begin(), has_faces.end(), 1));
   graph.stats.local_solve_seconds = seconds_since(solves_start);
   return graph;
 }

@@ -5,7 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -159,9 +159,8 @@ void run_build(const BuildArgs& args) {
   add("time local      %.3f s\n", graph.stats.local_solve_seconds);
   add("time write      %.3f s\n", write_seconds);
   add("time total      %.3f s\n", total);
-  std::ifstream size_probe(args.out, std::ios::binary | std::ios::ate);
   add("file            %s (%s)\n", args.out.c_str(),
-      human_bytes(static_cast<double>(size_probe.tellg())).c_str());
+      human_bytes(static_cast<double>(std::filesystem::file_size(args.out))).c_str());
   write_output(out, "");
 }
 
