@@ -202,6 +202,9 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   if (std::isnan(options.max_distance) || options.max_distance < 0) {
     throw InvalidInput("BadRadius", "max_distance must be a non-negative number");
   }
+  if (std::isnan(options.min_distance) || options.min_distance < 0) {
+    throw InvalidInput("BadRadius", "min_distance must be a non-negative number");
+  }
   reset();
   sources_.assign(sources.begin(), sources.end());
 
@@ -217,8 +220,9 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   while (!queue_.empty()) {
     const QueueEntry top = queue_.front();
     if (!targets_.empty()) {
-      settle_targets_up_to(top.key);
-      if (settled_targets_.size() >= targets_wanted_) {
+      // Only targets within max_distance count: beyond it nothing is final.
+      settle_targets_up_to(std::min(top.key, options.max_distance));
+      if (settled_targets_.size() >= targets_wanted_ && top.key >= options.min_distance) {
         radius_reached_ = top.key;
         stopped = true;
         break;
@@ -242,10 +246,13 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   for (std::uint32_t v : touched_vertices_) {
     if (vertex_distance_[v] <= radius_reached_) ++stats_.vertices_reached;
   }
-  // Targets are settled in order of their estimates; keep only as many as asked for.
-  if (settled_targets_.size() > targets_wanted_) {
-    settled_targets_.resize(targets_wanted_);
-    settled_distances_.resize(targets_wanted_);
+  // Targets are settled in order of their estimates; keep only as many as asked for, and all
+  // of those within min_distance.
+  std::size_t keep = targets_wanted_;
+  while (keep < settled_targets_.size() && settled_distances_[keep] <= options.min_distance) ++keep;
+  if (settled_targets_.size() > keep) {
+    settled_targets_.resize(keep);
+    settled_distances_.resize(keep);
   }
 }
 

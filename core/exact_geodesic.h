@@ -76,6 +76,9 @@ struct ExactGeodesicOptions {
   /// With targets: stop as soon as this many targets are settled (0: all of them). The
   /// settled ones are then exactly the nearest ones.
   std::size_t stop_after_targets = 0;
+  /// With stop_after_targets: do not stop before every point within this distance is final,
+  /// even when enough targets are settled (all targets within it are then settled too).
+  double min_distance = 0;
 };
 
 class ExactGeodesicSolver {

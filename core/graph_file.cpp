@@ -189,7 +189,7 @@ int section_index(std::uint32_t id) {
 
 struct GraphArrays {
   std::uint64_t num_vertices = 0, num_faces = 0, num_edges = 0;
-  double longest_edge = 0, covering_radius = 0;
+  double longest_edge = 0, covering_radius = 0, link_radius = 0;
   std::span<const Triangle> faces;
   std::span<const Vec3> positions;
   std::span<const double> edge_lengths;
@@ -261,6 +261,9 @@ std::string arrays_problem(const GraphArrays& a) {
   }
   if (!(std::isfinite(a.covering_radius) && a.covering_radius >= 0)) {
     return "r (covering radius) is " + fmt_double(a.covering_radius);
+  }
+  if (!(std::isfinite(a.link_radius) && a.link_radius >= 0)) {
+    return "the link radius is " + fmt_double(a.link_radius);
   }
 
   // Samples: distinct vertices.
@@ -479,6 +482,7 @@ void write_graph_file(const std::string& path, const TriangleMesh& mesh,
   a.num_edges = mesh.num_edges();
   a.longest_edge = graph.longest_edge;
   a.covering_radius = graph.covering_radius;
+  a.link_radius = graph.link_radius;
   a.faces = mesh.faces();
   a.positions = mesh.positions();
   a.edge_lengths = geometry.edge_lengths();
@@ -517,6 +521,7 @@ void write_graph_file(const std::string& path, const TriangleMesh& mesh,
   header.param_sampling = static_cast<std::uint32_t>(sampling);
   header.longest_edge = graph.longest_edge;
   header.covering_radius = graph.covering_radius;
+  header.link_radius = graph.link_radius;
   header.num_vertices = a.num_vertices;
   header.num_faces = a.num_faces;
   header.num_edges = a.num_edges;
@@ -822,6 +827,7 @@ MappedGraphFile MappedGraphFile::open(const std::string& path, const OpenOptions
   v.neighbors = h.param_neighbors;
   v.longest_edge = h.longest_edge;
   v.covering_radius = h.covering_radius;
+  v.link_radius = h.link_radius;
   v.sample_vertex = section_span<std::uint32_t>(base, sec(Id::SampleVertex));
   v.edge_offsets = section_span<std::uint32_t>(base, sec(Id::EdgeOffsets));
   v.edge_target = section_span<std::uint32_t>(base, sec(Id::EdgeTarget));
@@ -837,6 +843,7 @@ MappedGraphFile MappedGraphFile::open(const std::string& path, const OpenOptions
   a.num_edges = h.num_edges;
   a.longest_edge = h.longest_edge;
   a.covering_radius = h.covering_radius;
+  a.link_radius = h.link_radius;
   a.faces = file.faces_;
   a.positions = file.positions_;
   a.edge_lengths = file.edge_lengths_;
@@ -1104,7 +1111,7 @@ class VertexLocator {
     cell_ = tolerance_ > 0 ? tolerance_ : 1.0;
     cells_.reserve(pos.size());
     for (std::uint32_t v = 0; v < pos.size(); ++v) {
-      std::int64_t c[3];
+      std::int64_t c[3] = {0, 0, 0};
       cell_of(pos[v], c);
       cells_.emplace(key(c[0], c[1], c[2]), v);
     }
@@ -1114,7 +1121,7 @@ class VertexLocator {
 
   /// Vertex within tolerance (nearest, lowest id on ties), or -1; `nearest` gets its distance.
   std::int64_t find(const Vec3& q) const {
-    std::int64_t c[3];
+    std::int64_t c[3] = {0, 0, 0};
     if (!cell_of(q, c)) return -1;
     std::int64_t best = -1;
     double best_distance = std::numeric_limits<double>::infinity();

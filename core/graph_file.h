@@ -4,7 +4,7 @@
 // CSR form with distances and end directions, the per-vertex cover table), plus the paper's text
 // format for interchange.
 //
-// Binary layout, version 1 (all integers and IEEE doubles/floats little-endian):
+// Binary layout, version 2 (all integers and IEEE doubles/floats little-endian):
 //
 //   offset  size  field
 //   0       8     magic "GEOPROXG"
@@ -18,7 +18,7 @@
 //   48      8     R (longest graph edge), 56 r (covering radius), doubles
 //   64      8x6   counts: vertices, faces, edges, samples, graph edges, cover entries (uint64)
 //   112     8     mesh fingerprint (mesh_fingerprint below)
-//   120     8     reserved (0)
+//   120     8     link radius (double, mesh units; 0 when unknown)
 //   128     256   source mesh name, NUL-padded (informational)
 //   384     32xN  section table: {uint32 id, uint32 element size, uint64 offset, uint64 bytes,
 //                 uint64 element count}, one row per GraphFileSectionId
@@ -58,7 +58,7 @@
 namespace geoprox {
 
 inline constexpr char kGraphFileMagic[8] = {'G', 'E', 'O', 'P', 'R', 'O', 'X', 'G'};
-inline constexpr std::uint32_t kGraphFileVersion = 1;
+inline constexpr std::uint32_t kGraphFileVersion = 2;
 inline constexpr std::uint32_t kGraphFileEndianMarker = 0x01020304u;
 inline constexpr std::size_t kGraphFileAlignment = 64;
 
@@ -83,7 +83,7 @@ struct GraphFileHeader {
   std::uint64_t num_graph_edges;
   std::uint64_t num_covers;
   std::uint64_t mesh_fingerprint;
-  std::uint64_t reserved1;
+  double link_radius;  ///< radius of the query points' exact link solves
   char source_mesh[256];
 };
 static_assert(sizeof(GraphFileHeader) == 384);
@@ -208,6 +208,7 @@ class MappedGraphFile {
   GraphFileCounts counts() const;
   double longest_edge() const { return header_.longest_edge; }
   double covering_radius() const { return header_.covering_radius; }
+  double link_radius() const { return header_.link_radius; }
   std::uint64_t fingerprint() const { return header_.mesh_fingerprint; }
   std::uint64_t checksum() const { return checksum_; }
   std::string_view source_mesh() const;

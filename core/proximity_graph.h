@@ -35,6 +35,9 @@ struct ProximityGraphOptions {
   std::uint32_t num_samples = 0;
   /// m_P, nearest samples each sample is linked to; 0 picks the Table 1 value.
   std::uint32_t neighbors = 0;
+  /// m_st, samples a query point is linked to on average; 0 uses 2 * m_P (the paper's). It
+  /// sets the link radius (see ProximityGraphView::link_radius).
+  std::uint32_t link_samples = 0;
   SamplingMethod sampling = SamplingMethod::Automatic;
   /// Automatic sampling switches to exact distances when the mean Lo quality of the faces is
   /// below this (an equilateral triangle has 0.1443; the paper's poor model has 0.065) or more
@@ -64,6 +67,11 @@ struct ProximityGraphView {
   std::uint32_t neighbors = 0;        ///< m_P it was built with
   double longest_edge = 0;            ///< R: longest graph edge (mesh units)
   double covering_radius = 0;         ///< r: radius of the largest empty disk (mesh units)
+  /// rho: queries link a point to every sample within this geodesic distance and answer exactly
+  /// below it. Chosen so that a disk of radius rho holds m_st samples on average
+  /// (pi rho^2 = m_st * area / n_P); every sample's local solve reaches at least rho, so the
+  /// cover row of a vertex lists every sample within rho of it. 0: unknown (imported graphs).
+  double link_radius = 0;
 
   std::span<const std::uint32_t> sample_vertex;        ///< [num_samples] vertex of sample i
   std::span<const std::uint32_t> edge_offsets;         ///< [num_samples + 1] CSR rows
@@ -72,7 +80,8 @@ struct ProximityGraphView {
   std::span<const GraphDirection> edge_direction;      ///< [edges] direction at i towards j
   std::span<const std::uint32_t> cover_offsets;        ///< [num_vertices + 1] CSR rows
   std::span<const std::uint32_t> cover_sample;         ///< [covers] sample covering the vertex
-  std::span<const float> cover_distance;               ///< [covers] exact distance to it
+  /// [covers] exact distance to it, rounded up to the next float (an upper bound).
+  std::span<const float> cover_distance;
 
   std::size_t num_edges() const { return edge_target.size(); }
   /// Theorem 4.2's bound on the relative error of graph distances: 2r / (R - 2r) (infinite
@@ -98,6 +107,7 @@ class ProximityGraph {
   std::uint32_t neighbors = 0;
   double longest_edge = 0;
   double covering_radius = 0;
+  double link_radius = 0;
   std::vector<std::uint32_t> sample_vertex;
   std::vector<std::uint32_t> edge_offsets;
   std::vector<std::uint32_t> edge_target;

@@ -9,6 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "core/mesh.h"
+#include "core/surface_point.h"
+
 namespace CLI {
 class App;
 }
@@ -50,6 +53,19 @@ void write_output(const std::string& text, const std::string& out_path);
 /// it over `path`: readers see the old content or the whole new one, never half a file. On
 /// failure the temporary file is removed, `path` is untouched, and FileError is thrown.
 void write_file_atomically(const std::string& path, const std::string& text);
+
+/// Parses a point given to `option` (v:/e:/f: syntax); the error names the option.
+SurfacePoint parse_point(const std::string& option, const std::string& text);
+/// Checks a parsed point against the mesh; the error names the option and the text as given.
+void validate_point(const std::string& option, const std::string& text, const SurfacePoint& point,
+                    const TriangleMesh& mesh);
+/// CLI11 check for --radius-like options: a number >= 0, `inf` allowed.
+std::string check_radius(const std::string& text);
+/// %.17g, with infinity spelt `inf` whatever the C library does.
+void append_number(std::string& out, double value);
+
+/// Adds the query commands on a built graph (`distance`, `field`, `eval`).
+void add_query_commands(CLI::App& app, std::vector<Command>& commands);
 
 /// Prints `geoprox: <label>: <message>` as exactly one line on standard error.
 void print_diagnostic(const std::string& label, const std::string& message);

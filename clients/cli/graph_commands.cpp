@@ -26,6 +26,7 @@ struct BuildArgs {
   std::string out;
   std::uint32_t samples = 0;
   std::uint32_t neighbors = 0;
+  std::uint32_t link_samples = 0;
   int threads = 0;
   std::string sampling = "auto";
   std::string export_text;
@@ -102,6 +103,7 @@ void run_build(const BuildArgs& args) {
   ProximityGraphOptions options;
   options.num_samples = args.samples;
   options.neighbors = args.neighbors;
+  options.link_samples = args.link_samples;
   options.threads = args.threads;
   if (args.sampling == "fmm") {
     options.sampling = SamplingMethod::FastMarching;
@@ -153,6 +155,7 @@ void run_build(const BuildArgs& args) {
   add("cover entries   %zu\n", view.cover_sample.size());
   add("R longest edge  %.6g\n", view.longest_edge);
   add("r covering      %.6g\n", view.covering_radius);
+  add("link radius     %.6g\n", view.link_radius);
   add("bound 2r/(R-2r) %.4g\n", view.error_bound());
   add("time load       %.3f s\n", load_seconds);
   add("time sampling   %.3f s\n", graph.stats.sampling_seconds);
@@ -192,6 +195,7 @@ void run_inspect(const InspectArgs& args) {
   add("cover entries   %llu\n", static_cast<unsigned long long>(counts.covers));
   add("R longest edge  %.6g\n", file.longest_edge());
   add("r covering      %.6g\n", file.covering_radius());
+  add("link radius     %.6g\n", file.link_radius());
   add("bound 2r/(R-2r) %.4g\n", view.error_bound());
   std::size_t min_degree = SIZE_MAX, max_degree = 0;
   for (std::uint32_t i = 0; i < view.num_samples; ++i) {
@@ -225,6 +229,9 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
                     "n_P samples (default: the paper's Table 1 for the face count)");
   build->add_option("--neighbors", build_args->neighbors,
                     "m_P nearest samples linked to each (default: Table 1)");
+  build->add_option("--link-samples", build_args->link_samples,
+                    "m_st: samples a query point is linked to on average; sets the link radius "
+                    "(default: 2 m_P)");
   build->add_option("--threads", build_args->threads, "OpenMP threads (default: all cores)");
   build->add_option("--sampling", build_args->sampling,
                     "fmm, exact or auto (exact when the mesh quality is poor)")

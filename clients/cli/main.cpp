@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
   std::vector<Command> commands;
   add_offline_commands(app, commands);
   add_graph_commands(app, commands);
+  add_query_commands(app, commands);
 
   // CLI11 would report an unknown command as "A subcommand is required": name it instead.
   if (argc > 1 && argv[1][0] != '-') {

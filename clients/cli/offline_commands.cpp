@@ -37,47 +37,6 @@ struct ExactArgs {
   bool to_given = false;   ///< --to was on the command line (an empty point is an error)
 };
 
-/// Parses a point given to `option`; the error names the option.
-SurfacePoint parse_point(const std::string& option, const std::string& text) {
-  try {
-    return parse_surface_point(text);
-  } catch (const InvalidInput& e) {
-    throw InvalidInput(e.reason(), option + ": " + e.what());
-  }
-}
-
-/// Checks a parsed point against the mesh; the error names the option and the text as given.
-void validate_point(const std::string& option, const std::string& text, const SurfacePoint& point,
-                    const TriangleMesh& mesh) {
-  try {
-    point.validate(mesh);
-  } catch (const InvalidInput& e) {
-    throw InvalidInput(e.reason(), option + " " + text + ": " + e.what());
-  }
-}
-
-/// CLI11 check for --radius: a number >= 0, `inf` allowed.
-std::string check_radius(const std::string& text) {
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || std::isnan(value) || value < 0) {
-    return "must be a non-negative number or inf, not '" + text + "'";
-  }
-  return {};
-}
-
-/// %.17g, with infinity spelt `inf` whatever the C library does.
-void append_number(std::string& out, double value) {
-  GEOPROX_ASSERT(!std::isnan(value), "a distance or coordinate is NaN");
-  if (std::isinf(value)) {
-    out += value > 0 ? "inf" : "-inf";
-    return;
-  }
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", value);
-  out += buf;
-}
-
 void run_info(const InfoArgs& args) {
   const TriangleMesh mesh = load_mesh(args.mesh);
   const IntrinsicGeometry geometry(mesh);

@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -84,6 +86,47 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   is_open = false;
   if (::close(fd) != 0) fail("close");
   if (std::rename(temporary.c_str(), path.c_str()) != 0) fail("rename");
+}
+
+/// Parses a point given to `option`; the error names the option.
+SurfacePoint parse_point(const std::string& option, const std::string& text) {
+  try {
+    return parse_surface_point(text);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(e.reason(), option + ": " + e.what());
+  }
+}
+
+/// Checks a parsed point against the mesh; the error names the option and the text as given.
+void validate_point(const std::string& option, const std::string& text, const SurfacePoint& point,
+                    const TriangleMesh& mesh) {
+  try {
+    point.validate(mesh);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(e.reason(), option + " " + text + ": " + e.what());
+  }
+}
+
+/// CLI11 check for --radius: a number >= 0, `inf` allowed.
+std::string check_radius(const std::string& text) {
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || std::isnan(value) || value < 0) {
+    return "must be a non-negative number or inf, not '" + text + "'";
+  }
+  return {};
+}
+
+/// %.17g, with infinity spelt `inf` whatever the C library does.
+void append_number(std::string& out, double value) {
+  GEOPROX_ASSERT(!std::isnan(value), "a distance or coordinate is NaN");
+  if (std::isinf(value)) {
+    out += value > 0 ? "inf" : "-inf";
+    return;
+  }
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", value);
+  out += buf;
 }
 
 }  // namespace geoprox::cli

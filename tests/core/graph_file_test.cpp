@@ -81,6 +81,7 @@ ProximityGraphView view_of(const ProximityGraph& g) {
   v.neighbors = g.neighbors;
   v.longest_edge = g.longest_edge;
   v.covering_radius = g.covering_radius;
+  v.link_radius = g.link_radius;
   v.sample_vertex = g.sample_vertex;
   v.edge_offsets = g.edge_offsets;
   v.edge_target = g.edge_target;
@@ -220,6 +221,7 @@ TEST(GraphFile, BinaryRoundTripIsBitwise) {
   EXPECT_EQ(file.params().sampling, SamplingMethod::Exact);
   EXPECT_EQ(file.longest_edge(), g.longest_edge);
   EXPECT_EQ(file.covering_radius(), g.covering_radius);
+  EXPECT_EQ(file.link_radius(), g.link_radius);
   const GraphFileCounts c = file.counts();
   EXPECT_EQ(c.vertices, fx.cube.mesh->num_vertices());
   EXPECT_EQ(c.faces, fx.cube.mesh->num_faces());
@@ -504,6 +506,9 @@ TEST_F(DamagedGraphFile, InvalidContentsAreRefusedEvenWithoutChecksum) {
       {"NaN distance",
        [&](auto& b) { poke<double>(b, sec(Id::EdgeDistance).offset + 8 * 2, std::nan("")); },
        "graph edge 2 has distance"},
+      {"negative link radius",
+       [&](auto& b) { poke<double>(b, offsetof(GraphFileHeader, link_radius), -1.0); },
+       "link radius"},
       {"face vertex out of range",
        [&](auto& b) { poke<std::uint32_t>(b, sec(Id::Faces).offset + 4, 1u << 30); },
        "face 0 has a vertex id out of range"},

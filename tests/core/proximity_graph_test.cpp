@@ -28,6 +28,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -476,8 +477,13 @@ void check_cover_table(const TestMesh& m, const ProximityGraph& g, const std::st
   }
   if (uncovered == 0) {
     // r is the largest distance from a vertex to its nearest covering sample; the table holds
-    // floats, and rounding commutes with min and max.
-    EXPECT_EQ(static_cast<float>(g.covering_radius), static_cast<float>(r_from_table))
+    // the floats at or just above the exact distances, and that rounding commutes with min and
+    // max.
+    float r_up = static_cast<float>(g.covering_radius);
+    if (static_cast<double>(r_up) < g.covering_radius) {
+      r_up = std::nextafter(r_up, std::numeric_limits<float>::infinity());
+    }
+    EXPECT_EQ(r_up, static_cast<float>(r_from_table))
         << fmt(g.covering_radius) << " vs " << fmt(r_from_table);
   }
 
@@ -505,6 +511,11 @@ void check_cover_table(const TestMesh& m, const ProximityGraph& g, const std::st
       if (!close_rel(d, fresh, 1e-6, floor) && ++failures <= 5) {
         ADD_FAILURE() << "cover of vertex " << v << " by sample " << s << ": stored "
                       << fmt(d) << ", fresh exact " << fmt(fresh);
+      }
+      // Rounded up, never down: graph answers built from covers stay lengths of real paths.
+      if (static_cast<double>(d) < fresh * (1 - 1e-12) && ++failures <= 5) {
+        ADD_FAILURE() << "cover of vertex " << v << " by sample " << s << " is below the exact "
+                      << "distance: stored " << fmt(d) << ", fresh exact " << fmt(fresh);
       }
     }
   }
@@ -728,6 +739,69 @@ TEST(ProximityGraph, CoverTableHoldsExactDistances) {
   check_cover_table(spot(), spot_fmm_graph(), "spot fmm 150/10");
   check_cover_table(spot(), spot_exact_graph(), "spot exact 100/10");
   check_cover_table(holed_grid_mesh(), grid_graph(), "holed grid 80/8");
+}
+
+// The link radius rho: pi rho^2 = m_st * area / n_P; every sample's solve reaches it, so each
+// vertex's cover row lists every sample within rho of it and each sample has an edge to every
+// sample within rho (what queries rely on for exact answers below rho and field == p2p).
+void check_link_radius(const TestMesh& m, const ProximityGraph& g, const std::string& what) {
+  SCOPED_TRACE(what);
+  const TriangleMesh& mesh = *m.mesh;
+  double area = 0;
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) area += m.geometry->face_area(f);
+  const auto n = static_cast<std::uint32_t>(g.sample_vertex.size());
+  const double expected = std::sqrt(2.0 * g.neighbors * area / (std::numbers::pi * n));
+  EXPECT_NEAR(g.link_radius, expected, 1e-12 * expected);
+  ExactGeodesicSolver solver(mesh, *m.geometry);
+  std::vector<std::int32_t> sample_of(mesh.num_vertices(), -1);
+  for (std::uint32_t i = 0; i < n; ++i) sample_of[g.sample_vertex[i]] = static_cast<std::int32_t>(i);
+  int failures = 0;
+  std::size_t within = 0;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    ExactGeodesicOptions o;
+    o.max_distance = g.link_radius;
+    solver.solve(SurfacePoint::vertex(g.sample_vertex[i]), o);
+    for (std::uint32_t v : solver.touched_vertices()) {
+      const double d = solver.distance(v);
+      if (!(d < g.link_radius * (1 - 1e-9))) continue;  // clear of the boundary's rounding
+      ++within;
+      bool covered = false;
+      for (std::uint32_t k = g.cover_offsets[v]; k < g.cover_offsets[v + 1]; ++k) {
+        covered = covered || g.cover_sample[k] == i;
+      }
+      if (!covered && ++failures <= 5) {
+        ADD_FAILURE() << "vertex " << v << " at " << fmt(d) << " < rho = " << fmt(g.link_radius)
+                      << " from sample " << i << " is not in its cover row";
+      }
+      const std::int32_t j = sample_of[v];
+      if (j >= 0 && static_cast<std::uint32_t>(j) != i) {
+        bool edge = false;
+        for (std::uint32_t e = g.edge_offsets[i]; e < g.edge_offsets[i + 1]; ++e) {
+          edge = edge || g.edge_target[e] == static_cast<std::uint32_t>(j);
+        }
+        if (!edge && ++failures <= 5) {
+          ADD_FAILURE() << "samples " << i << " and " << j << " are " << fmt(d)
+                        << " apart, within rho, but not joined by an edge";
+        }
+      }
+    }
+  }
+  EXPECT_EQ(failures, 0);
+  EXPECT_GT(within, n);  // the disks hold more than the samples themselves
+}
+
+TEST(ProximityGraph, CoversAndEdgesReachTheLinkRadius) {
+  check_link_radius(spot(), spot_fmm_graph(), "spot fmm 150/10");
+  check_link_radius(holed_grid_mesh(), grid_graph(), "holed grid 80/8");
+  // An explicit m_st changes rho accordingly.
+  ProximityGraphOptions options;
+  options.num_samples = 120;
+  options.neighbors = 6;
+  options.link_samples = 30;
+  const ProximityGraph g = build_proximity_graph(*spot().mesh, *spot().geometry, options);
+  double area = 0;
+  for (std::uint32_t f = 0; f < spot().mesh->num_faces(); ++f) area += spot().geometry->face_area(f);
+  EXPECT_NEAR(g.link_radius, std::sqrt(30 * area / (std::numbers::pi * 120)), 1e-12);
 }
 
 TEST(ProximityGraph, IdenticalForOneAndTwoThreads) {

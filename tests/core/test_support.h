@@ -44,6 +44,8 @@ inline void expect_same_graph(const ProximityGraphView& v, const ProximityGraph&
             std::bit_cast<std::uint64_t>(g.longest_edge));
   EXPECT_EQ(std::bit_cast<std::uint64_t>(v.covering_radius),
             std::bit_cast<std::uint64_t>(g.covering_radius));
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(v.link_radius),
+            std::bit_cast<std::uint64_t>(g.link_radius));
   EXPECT_TRUE(same_bits(v.sample_vertex, g.sample_vertex));
   EXPECT_TRUE(same_bits(v.edge_offsets, g.edge_offsets));
   EXPECT_TRUE(same_bits(v.edge_target, g.edge_target));

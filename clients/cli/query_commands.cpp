@@ -1,0 +1,522 @@
+// `geoprox distance`, `geoprox field` and `geoprox eval`: queries on a built graph (issue 4),
+// calling core directly.
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "clients/cli/cli.h"
+#include "core/errors.h"
+#include "core/exact_geodesic.h"
+#include "core/fast_marching.h"
+#include "core/geodesic_query.h"
+#include "core/graph_file.h"
+#include "core/intrinsic_geometry.h"
+#include "core/mesh_io.h"
+
+namespace geoprox::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+/// The p-quantile (0..1) of `values` by nearest rank; 0 for none.
+double quantile(std::vector<double> values, double p) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(values.size())));
+  return values[std::min(values.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+double mean(const std::vector<double>& values) {
+  double sum = 0;
+  for (double v : values) sum += v;
+  return values.empty() ? 0 : sum / static_cast<double>(values.size());
+}
+
+/// `text` as the inside of a JSON string.
+std::string json_escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+/// A mesh, its graph file (checked against it) and a query object over both.
+struct LoadedGraph {
+  TriangleMesh mesh;
+  IntrinsicGeometry geometry;
+  MappedGraphFile file;
+  std::unique_ptr<GeodesicQuery> query;
+
+  LoadedGraph(const std::string& mesh_path, const std::string& graph_path)
+      : mesh(load_mesh(mesh_path)), geometry(mesh), file(MappedGraphFile::open(graph_path)) {
+    file.verify_mesh(mesh, geometry);
+    query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view());
+  }
+};
+
+/// Point syntax of `geoprox exact` plus `s:I` (sample I of the graph) and `p:X,Y,Z` (a 3D
+/// position snapped to the surface).
+SurfacePoint resolve_point(const std::string& option, const std::string& text,
+                           const GeodesicQuery& query) {
+  if (text.rfind("s:", 0) == 0) {
+    char* end = nullptr;
+    const unsigned long sample = std::strtoul(text.c_str() + 2, &end, 10);
+    if (text.size() == 2 || *end != '\0' || sample > UINT32_MAX) {
+      throw InvalidInput("BadPointSyntax", option + ": '" + text + "' is not s:SAMPLE");
+    }
+    return query.sample_point(static_cast<std::uint32_t>(sample));
+  }
+  if (text.rfind("p:", 0) == 0) {
+    Vec3 p;
+    char tail = 0;
+    if (std::sscanf(text.c_str() + 2, "%lf,%lf,%lf%c", &p.x, &p.y, &p.z, &tail) != 3) {
+      throw InvalidInput("BadPointSyntax", option + ": '" + text + "' is not p:X,Y,Z");
+    }
+    return query.snap(p).point;
+  }
+  const SurfacePoint point = parse_point(option, text);
+  validate_point(option, text, point, query.mesh());
+  return point;
+}
+
+void report_timings(const char* what, const std::vector<double>& ms) {
+  std::fprintf(stderr, "geoprox: timing: %zu %s, median %.3f ms, p99 %.3f ms per query\n",
+               ms.size(), what, quantile(ms, 0.5), quantile(ms, 0.99));
+}
+
+// ---------------------------------------------------------------------------------------------
+// geoprox distance MESH --graph FILE --pairs PAIRS
+
+struct DistanceArgs {
+  std::string mesh, graph, pairs;
+};
+
+void run_distance(const DistanceArgs& args) {
+  LoadedGraph g(args.mesh, args.graph);
+  std::ifstream file;
+  std::istream* in = &std::cin;
+  if (args.pairs != "-") {
+    file.open(args.pairs);
+    if (!file) throw FileError("FileNotFound", "cannot open pairs file '" + args.pairs + "'");
+    in = &file;
+  }
+  QueryScratch scratch = g.query->make_scratch();
+  std::string line, text;
+  std::vector<double> ms;
+  std::size_t line_number = 0;
+  while (std::getline(*in, line)) {
+    ++line_number;
+    std::istringstream fields(line);
+    std::string a, b, extra;
+    if (!(fields >> a)) continue;  // blank line
+    if (!(fields >> b) || (fields >> extra)) {
+      throw InvalidInput("BadPairsLine", args.pairs + ":" + std::to_string(line_number) +
+                                             ": expected 'SOURCE TARGET'");
+    }
+    const std::string where = args.pairs + ":" + std::to_string(line_number);
+    const SurfacePoint s = resolve_point(where, a, *g.query);
+    const SurfacePoint t = resolve_point(where, b, *g.query);
+    const auto start = Clock::now();
+    double d = kInfinity;
+    try {
+      d = g.query->distance(s, t, scratch).distance;
+    } catch (const Unreachable&) {
+      // printed as inf
+    }
+    ms.push_back(ms_since(start));
+    append_number(text, d);
+    text += '\n';
+  }
+  write_output(text, "");
+  report_timings("distance queries", ms);
+}
+
+// ---------------------------------------------------------------------------------------------
+// geoprox field MESH --graph FILE --source P [--max-distance D]
+
+struct FieldArgs {
+  std::string mesh, graph;
+  std::vector<std::string> sources;
+  double max_distance = kInfinity;
+  int threads = 1;
+};
+
+void run_field(const FieldArgs& args) {
+  LoadedGraph g(args.mesh, args.graph);
+  std::vector<SurfacePoint> sources;
+  for (const std::string& text : args.sources) {
+    sources.push_back(resolve_point("--source", text, *g.query));
+  }
+  QueryScratch scratch = g.query->make_scratch();
+  DistanceFieldOptions options;
+  options.max_distance = args.max_distance;
+  options.threads = args.threads;
+  const auto start = Clock::now();
+  const DistanceField field = g.query->field(sources, scratch, options);
+  const double elapsed = ms_since(start);
+  std::string text;
+  text.reserve(field.distances.size() * 24);
+  for (double d : field.distances) {
+    append_number(text, d);
+    text += '\n';
+  }
+  write_output(text, "");
+  report_timings("fields", {elapsed});
+}
+
+// ---------------------------------------------------------------------------------------------
+// geoprox eval MESH GRAPH: accuracy against the exact solver, and query timings.
+
+struct EvalArgs {
+  std::string mesh, graph;
+  std::size_t pairs = 1000;
+  std::size_t fields = 2;
+  std::size_t paths = 200;
+  std::uint64_t seed = 1;
+  bool json = false;
+  bool fmm = true;
+};
+
+/// splitmix64: the same points for a seed on every platform.
+struct Rng {
+  std::uint64_t state;
+  std::uint64_t next() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+};
+
+/// Points uniform by area: a face by its area (binary search in the cumulative table), then
+/// uniform barycentrics (the square-root rule).
+class AreaSampler {
+ public:
+  explicit AreaSampler(const IntrinsicGeometry& g) {
+    double sum = 0;
+    for (std::uint32_t f = 0; f < g.mesh().num_faces(); ++f) {
+      sum += g.face_area(f);
+      cumulative_.push_back(sum);
+    }
+  }
+  SurfacePoint draw(Rng& rng) const {
+    const double x = rng.uniform() * cumulative_.back();
+    const auto f = static_cast<std::uint32_t>(
+        std::min<std::size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(), x) -
+                                  cumulative_.begin(),
+                              cumulative_.size() - 1));
+    const double r1 = std::sqrt(rng.uniform()), r2 = rng.uniform();
+    const double b0 = 1 - r1, b1 = r1 * (1 - r2);
+    return SurfacePoint::face(f, b0, b1, std::max(0.0, 1 - b0 - b1));
+  }
+
+ private:
+  std::vector<double> cumulative_;
+};
+
+struct ErrorStats {
+  std::size_t count = 0;
+  double mean = 0, p50 = 0, p99 = 0, max = 0;
+  std::size_t below_exact = 0;  ///< answers below the exact distance by more than 1e-9 relative
+};
+
+ErrorStats error_stats(const std::vector<double>& approx, const std::vector<double>& exact) {
+  std::vector<double> rel;
+  ErrorStats s;
+  for (std::size_t k = 0; k < approx.size(); ++k) {
+    if (!(exact[k] > 0) || !std::isfinite(exact[k]) || !std::isfinite(approx[k])) continue;
+    const double e = (approx[k] - exact[k]) / exact[k];
+    if (e < -1e-9) ++s.below_exact;
+    rel.push_back(std::abs(e));
+  }
+  s.count = rel.size();
+  s.mean = mean(rel);
+  s.p50 = quantile(rel, 0.5);
+  s.p99 = quantile(rel, 0.99);
+  s.max = rel.empty() ? 0 : *std::max_element(rel.begin(), rel.end());
+  return s;
+}
+
+/// Fast marching's value at a surface point: the barycentric blend of its face's corners.
+double fmm_at(const FastMarchingSolver& fmm, const TriangleMesh& mesh, const SurfacePoint& p) {
+  const auto [face, bary] = p.in_face(mesh);
+  double d = 0;
+  for (int i = 0; i < 3; ++i) d += bary[i] * fmm.distance(mesh.face(face)[i]);
+  return d;
+}
+
+void run_eval(const EvalArgs& args) {
+  if (args.pairs == 0) throw InvalidInput("BadCount", "--pairs must be positive");
+  LoadedGraph g(args.mesh, args.graph);
+  const TriangleMesh& mesh = g.mesh;
+  const GeodesicQuery& query = *g.query;
+  const AreaSampler sampler(g.geometry);
+  Rng rng{args.seed};
+
+  // Pairs share sources (100 targets each) so that one full exact solve serves 100 pairs.
+  const std::size_t per_source = std::min<std::size_t>(100, args.pairs);
+  const std::size_t num_sources = (args.pairs + per_source - 1) / per_source;
+  std::vector<SurfacePoint> sources(num_sources);
+  std::vector<std::vector<SurfacePoint>> targets(num_sources);
+  for (std::size_t k = 0; k < num_sources; ++k) {
+    sources[k] = sampler.draw(rng);
+    const std::size_t n = std::min(per_source, args.pairs - k * per_source);
+    for (std::size_t j = 0; j < n; ++j) targets[k].push_back(sampler.draw(rng));
+  }
+  std::vector<SurfacePoint> field_sources(args.fields);
+  for (SurfacePoint& p : field_sources) p = sampler.draw(rng);
+
+  // Exact references and fast marching, in parallel over sources (untimed).
+  std::vector<std::vector<double>> exact(num_sources), fmm(num_sources);
+  std::vector<std::vector<double>> field_exact(args.fields), field_fmm(args.fields);
+  std::fprintf(stderr, "geoprox: eval: exact references for %zu sources and %zu fields...\n",
+               num_sources, args.fields);
+  const auto total = static_cast<std::int64_t>(num_sources + args.fields);
+#pragma omp parallel
+  {
+    ExactGeodesicSolver solver(mesh, g.geometry);
+    FastMarchingSolver marching(mesh, g.geometry);
+#pragma omp for schedule(dynamic, 1)
+    for (std::int64_t k = 0; k < total; ++k) {
+      const auto u = static_cast<std::size_t>(k);
+      const bool is_field = u >= num_sources;
+      const SurfacePoint& s = is_field ? field_sources[u - num_sources] : sources[u];
+      solver.solve(s);
+      if (args.fmm) marching.solve(s);
+      if (is_field) {
+        field_exact[u - num_sources] = solver.vertex_distances();
+        if (args.fmm) field_fmm[u - num_sources] = marching.vertex_distances();
+        continue;
+      }
+      for (const SurfacePoint& t : targets[u]) {
+        double d = kInfinity;
+        try {
+          d = solver.distance(t);
+        } catch (const Unreachable&) {
+        }
+        exact[u].push_back(d);
+        fmm[u].push_back(args.fmm ? fmm_at(marching, mesh, t) : kInfinity);
+      }
+    }
+  }
+
+  // Timed graph queries, one thread.
+  QueryScratch scratch = query.make_scratch();
+  std::vector<double> approx, reference, fmm_values, p2p_ms, path_ms, field_ms;
+  std::size_t exact_answers = 0, unreachable = 0, path_exact_segments = 0, paths_done = 0;
+  double samples_settled = 0;
+  double worst_path_length_error = 0;
+  for (std::size_t k = 0; k < num_sources; ++k) {
+    for (std::size_t j = 0; j < targets[k].size(); ++j) {
+      const auto start = Clock::now();
+      double d = kInfinity;
+      try {
+        const DistanceResult r = query.distance(sources[k], targets[k][j], scratch);
+        d = r.distance;
+        exact_answers += r.exact ? 1 : 0;
+        samples_settled += r.samples_settled;
+      } catch (const Unreachable&) {
+        ++unreachable;
+      }
+      p2p_ms.push_back(ms_since(start));
+      approx.push_back(d);
+      reference.push_back(exact[k][j]);
+      fmm_values.push_back(fmm[k][j]);
+    }
+  }
+  for (std::size_t k = 0; k < num_sources && paths_done < args.paths; ++k) {
+    for (std::size_t j = 0; j < targets[k].size() && paths_done < args.paths; ++j) {
+      const auto start = Clock::now();
+      try {
+        const PathResult p = query.path(sources[k], targets[k][j], scratch);
+        path_ms.push_back(ms_since(start));
+        double length = 0;
+        for (std::size_t i = 1; i < p.points.size(); ++i) {
+          length += norm(p.points[i].position - p.points[i - 1].position);
+        }
+        if (p.distance > 0) {
+          worst_path_length_error =
+              std::max(worst_path_length_error, std::abs(length - p.distance) / p.distance);
+        }
+        path_exact_segments += p.exact_segments;
+      } catch (const Unreachable&) {
+      }
+      ++paths_done;
+    }
+  }
+  std::vector<double> field_approx, field_reference, field_fmm_values;
+  for (std::size_t k = 0; k < args.fields; ++k) {
+    const auto start = Clock::now();
+    const DistanceField f = query.field(std::span<const SurfacePoint>(&field_sources[k], 1), scratch);
+    field_ms.push_back(ms_since(start));
+    for (std::size_t v = 0; v < f.distances.size(); ++v) {
+      field_approx.push_back(f.distances[v]);
+      field_reference.push_back(field_exact[k][v]);
+      field_fmm_values.push_back(args.fmm ? field_fmm[k][v] : kInfinity);
+    }
+  }
+
+  const ErrorStats pair_err = error_stats(approx, reference);
+  const ErrorStats pair_fmm = error_stats(fmm_values, reference);
+  const ErrorStats field_err = error_stats(field_approx, field_reference);
+  const ErrorStats field_fmm_err = error_stats(field_fmm_values, field_reference);
+  const ProximityGraphView view = g.file.view();
+
+  std::string text;
+  char buf[512];
+  auto add = [&](const char* fmt, auto... values) {
+    std::snprintf(buf, sizeof buf, fmt, values...);
+    text += buf;
+  };
+  add("mesh            %s (%zu faces, %zu vertices)\n", args.mesh.c_str(), mesh.num_faces(),
+      mesh.num_vertices());
+  add("graph           %u samples, m_P %u, link radius %.6g\n", view.num_samples, view.neighbors,
+      query.link_radius());
+  add("pairs           %zu (%zu answered exactly, %zu unreachable), seed %llu\n", approx.size(),
+      exact_answers, unreachable, static_cast<unsigned long long>(args.seed));
+  add("distance error  mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
+      100 * pair_err.mean, 100 * pair_err.p50, 100 * pair_err.p99, 100 * pair_err.max,
+      pair_err.below_exact);
+  if (args.fmm) {
+    add("fast marching   mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%\n", 100 * pair_fmm.mean,
+        100 * pair_fmm.p50, 100 * pair_fmm.p99, 100 * pair_fmm.max);
+  }
+  add("field error     %zu fields, mean %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
+      args.fields, 100 * field_err.mean, 100 * field_err.p99, 100 * field_err.max,
+      field_err.below_exact);
+  if (args.fmm) {
+    add("field fmm       mean %.4f%%  p99 %.4f%%  max %.4f%%\n", 100 * field_fmm_err.mean,
+        100 * field_fmm_err.p99, 100 * field_fmm_err.max);
+  }
+  add("p2p time        median %.3f ms  p99 %.3f ms  (graph search: %.0f samples settled on "
+      "average)\n",
+      quantile(p2p_ms, 0.5), quantile(p2p_ms, 0.99),
+      samples_settled / static_cast<double>(std::max<std::size_t>(1, approx.size())));
+  add("path time       median %.3f ms  p99 %.3f ms  (%zu paths, %zu exact segments, length "
+      "error max %.2e)\n",
+      quantile(path_ms, 0.5), quantile(path_ms, 0.99), path_ms.size(), path_exact_segments,
+      worst_path_length_error);
+  add("field time      median %.3f ms\n", quantile(field_ms, 0.5));
+  if (args.json) {
+    add("{\"mesh\":\"%s\",\"faces\":%zu,\"vertices\":%zu,\"samples\":%u,\"neighbors\":%u,",
+        json_escape(args.mesh).c_str(), mesh.num_faces(), mesh.num_vertices(),
+        view.num_samples, view.neighbors);
+    add("\"link_radius\":%.17g,\"pairs\":%zu,\"exact_answers\":%zu,\"unreachable\":%zu,",
+        query.link_radius(), approx.size(), exact_answers, unreachable);
+    add("\"seed\":%llu,\"error\":{\"mean\":%.6g,\"p50\":%.6g,\"p99\":%.6g,\"max\":%.6g,"
+        "\"below_exact\":%zu},",
+        static_cast<unsigned long long>(args.seed), pair_err.mean, pair_err.p50, pair_err.p99,
+        pair_err.max, pair_err.below_exact);
+    add("\"fmm_error\":{\"mean\":%.6g,\"p50\":%.6g,\"p99\":%.6g,\"max\":%.6g},", pair_fmm.mean,
+        pair_fmm.p50, pair_fmm.p99, pair_fmm.max);
+    add("\"fields\":%zu,\"field_error\":{\"mean\":%.6g,\"p99\":%.6g,\"max\":%.6g,"
+        "\"below_exact\":%zu},",
+        args.fields, field_err.mean, field_err.p99, field_err.max, field_err.below_exact);
+    add("\"field_fmm_error\":{\"mean\":%.6g,\"p99\":%.6g,\"max\":%.6g},", field_fmm_err.mean,
+        field_fmm_err.p99, field_fmm_err.max);
+    add("\"p2p_ms\":{\"p50\":%.6g,\"p99\":%.6g},\"path_ms\":{\"p50\":%.6g,\"p99\":%.6g},",
+        quantile(p2p_ms, 0.5), quantile(p2p_ms, 0.99), quantile(path_ms, 0.5),
+        quantile(path_ms, 0.99));
+    add("\"path_exact_segments\":%zu,\"path_length_error_max\":%.6g,\"field_ms\":%.6g}\n",
+        path_exact_segments, worst_path_length_error, quantile(field_ms, 0.5));
+  }
+  write_output(text, "");
+}
+
+}  // namespace
+
+void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
+  const std::string mesh_help = "Triangle mesh file the graph was built from";
+  const std::string point_help =
+      "Points: v:ID, e:ID:t, f:ID:b0:b1:b2, s:SAMPLE (a graph sample) or p:X,Y,Z (a position,\n"
+      "snapped to the closest surface point; refused beyond 5% of the bounding-box diagonal).";
+
+  auto distance_args = std::make_shared<DistanceArgs>();
+  CLI::App* distance =
+      app.add_subcommand("distance", "Graph distances between pairs of points (one per line)");
+  distance->add_option("MESH", distance_args->mesh, mesh_help)->required();
+  distance->add_option("-g,--graph", distance_args->graph, "Graph file from 'geoprox build'")
+      ->required();
+  distance
+      ->add_option("--pairs", distance_args->pairs,
+                   "File of lines 'SOURCE TARGET' ('-' for standard input)")
+      ->required();
+  distance->footer(point_help +
+                   "\nOutput: one distance per pair at full precision (%.17g), 'inf' when the\n"
+                   "points lie in different components. Query timings (median, p99) on stderr.\n\n" +
+                   exit_code_footer());
+  commands.push_back({distance, [distance_args] { run_distance(*distance_args); }});
+
+  auto field_args = std::make_shared<FieldArgs>();
+  CLI::App* field =
+      app.add_subcommand("field", "Graph distance field: distance of every vertex from a source");
+  field->add_option("MESH", field_args->mesh, mesh_help)->required();
+  field->add_option("-g,--graph", field_args->graph, "Graph file from 'geoprox build'")
+      ->required();
+  field
+      ->add_option("-s,--source", field_args->sources,
+                   "Source point(s); with several, the distance to the nearest")
+      ->required()
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  field->add_option("--max-distance", field_args->max_distance,
+                    "Vertices farther than this print inf")
+      ->check(CLI::Validator(check_radius, "D>=0"));
+  field->add_option("--threads", field_args->threads, "Threads for the per-vertex pass")
+      ->check(CLI::Range(1, 256));
+  field->footer(point_help +
+                "\nOutput: one distance per vertex in vertex order (%.17g, 'inf' where\n"
+                "unreachable). Timing on stderr.\n\n" +
+                exit_code_footer());
+  commands.push_back({field, [field_args] { run_field(*field_args); }});
+
+  auto eval_args = std::make_shared<EvalArgs>();
+  CLI::App* eval = app.add_subcommand(
+      "eval", "Accuracy of graph queries against the exact solver, and their timings");
+  eval->add_option("MESH", eval_args->mesh, mesh_help)->required();
+  eval->add_option("GRAPH", eval_args->graph, "Graph file from 'geoprox build'")->required();
+  eval->add_option("--pairs", eval_args->pairs, "Random point pairs (uniform by area)")
+      ->check(CLI::PositiveNumber);
+  eval->add_option("--fields", eval_args->fields, "Random sources for distance fields");
+  eval->add_option("--paths", eval_args->paths, "Pairs also queried for their path");
+  eval->add_option("--seed", eval_args->seed, "Seed of the random points (same seed, same points)");
+  eval->add_flag("--json", eval_args->json, "End with one JSON line holding every figure");
+  eval->add_flag("!--no-fmm", eval_args->fmm, "Skip the fast-marching comparison");
+  eval->footer(
+      "Pairs share sources (100 targets per source) so that one full exact solve serves 100\n"
+      "pairs; the exact references run on all cores, the graph queries on one thread.\n"
+      "Relative errors are |graph - exact| / exact; 'below exact' counts answers more than\n"
+      "1e-9 below the exact distance (there should be none: graph answers are real paths).\n"
+      "Fast marching at a face point blends its corners' values barycentrically.\n\n" +
+      exit_code_footer());
+  commands.push_back({eval, [eval_args] { run_eval(*eval_args); }});
+}
+
+}  // namespace geoprox::cli

@@ -1,0 +1,798 @@
+#include "core/geodesic_query.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <utility>
+
+#include "core/errors.h"
+#include "core/geodesic_tracing.h"
+
+namespace geoprox {
+
+namespace {
+
+struct HeapEntry {
+  double key;
+  std::uint32_t node;
+  std::uint32_t side;  // 0: from s, 1: from t (meet-in-the-middle shares one heap)
+  bool operator>(const HeapEntry& other) const { return key > other.key; }
+};
+
+// A binary min-heap over a reused vector (std::push_heap with greater<>).
+void heap_push(std::vector<HeapEntry>& heap, HeapEntry entry) {
+  heap.push_back(entry);
+  std::push_heap(heap.begin(), heap.end(), std::greater<>{});
+}
+HeapEntry heap_pop(std::vector<HeapEntry>& heap) {
+  std::pop_heap(heap.begin(), heap.end(), std::greater<>{});
+  const HeapEntry top = heap.back();
+  heap.pop_back();
+  return top;
+}
+
+double bounding_box_diagonal(const TriangleMesh& mesh) {
+  Vec3 lo{kInfinity, kInfinity, kInfinity}, hi{-kInfinity, -kInfinity, -kInfinity};
+  for (const Vec3& p : mesh.positions()) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  return norm(hi - lo);
+}
+
+constexpr std::int32_t kFromQueryPoint = -1;  // parent of a sample linked directly
+
+}  // namespace
+
+// Links of one query point: its nearest samples with exact distances, and what its local solve
+// found out about the other query point(s).
+struct QueryLinks {
+  std::vector<std::pair<std::uint32_t, double>> samples;
+  double longest = 0;
+  /// The exact distances of the local solve to every vertex it settled (fields only).
+  std::vector<std::pair<std::uint32_t, double>> region;
+};
+
+struct QueryScratch::Impl {
+  Impl(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+       const std::vector<SurfacePoint>& sample_points, std::uint32_t num_samples)
+      : solver_s(mesh, geometry),
+        solver_t(mesh, geometry),
+        targets(sample_points),
+        stamp(num_samples, 0),
+        label{std::vector<double>(num_samples), std::vector<double>(num_samples)},
+        parent{std::vector<std::int32_t>(num_samples), std::vector<std::int32_t>(num_samples)},
+        parent_edge{std::vector<std::uint32_t>(num_samples),
+                    std::vector<std::uint32_t>(num_samples)},
+        settled_stamp{std::vector<std::uint32_t>(num_samples, 0),
+                      std::vector<std::uint32_t>(num_samples, 0)},
+        origin(num_samples) {}
+
+  // Lazily resets sample i's labels for this search.
+  void touch(std::uint32_t i) {
+    if (stamp[i] != generation) {
+      stamp[i] = generation;
+      label[0][i] = label[1][i] = kInfinity;
+      parent[0][i] = parent[1][i] = kFromQueryPoint;
+    }
+  }
+  double get(int side, std::uint32_t i) const {
+    return stamp[i] == generation ? label[side][i] : kInfinity;
+  }
+  bool is_settled(int side, std::uint32_t i) const {
+    return settled_stamp[side][i] == generation;
+  }
+  void new_search() {
+    if (++generation == 0) {
+      std::fill(stamp.begin(), stamp.end(), 0);
+      std::fill(settled_stamp[0].begin(), settled_stamp[0].end(), 0);
+      std::fill(settled_stamp[1].begin(), settled_stamp[1].end(), 0);
+      generation = 1;
+    }
+    heap[0].clear();
+    heap[1].clear();
+  }
+
+  ExactGeodesicSolver solver_s, solver_t;
+  std::vector<SurfacePoint> targets;  ///< every sample (the link solves' targets)
+  std::uint32_t generation = 0;
+  std::vector<std::uint32_t> stamp;
+  std::vector<double> label[2];
+  std::vector<std::int32_t> parent[2];        ///< previous sample, or kFromQueryPoint
+  std::vector<std::uint32_t> parent_edge[2];  ///< graph edge it came through
+  std::vector<std::uint32_t> settled_stamp[2];
+  std::vector<std::uint32_t> origin;  ///< fields: which source's links the label comes from
+  std::vector<HeapEntry> heap[2];
+  QueryLinks links_s, links_t;
+  std::vector<QueryLinks> many;  ///< fields and matrices: one per point
+  GeodesicTrace trace, trace_back;
+  std::vector<PathPoint> piece;
+};
+
+QueryScratch::QueryScratch(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+QueryScratch::QueryScratch(QueryScratch&&) noexcept = default;
+QueryScratch& QueryScratch::operator=(QueryScratch&&) noexcept = default;
+QueryScratch::~QueryScratch() = default;
+
+GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                             const ProximityGraphView& graph, const Options& options)
+    : mesh_(&mesh), geometry_(&geometry), graph_(graph), options_(options) {
+  if (graph.num_vertices != mesh.num_vertices()) {
+    throw InvalidInput("GraphMismatch", "the graph was built for " +
+                                            std::to_string(graph.num_vertices) +
+                                            " vertices, the mesh has " +
+                                            std::to_string(mesh.num_vertices()));
+  }
+  if (graph.num_samples == 0) throw InvalidInput("GraphMismatch", "the graph has no samples");
+  link_radius_ = graph.link_radius;
+  if (!(link_radius_ > 0)) {  // an imported graph: the radius a build would have chosen
+    double area = 0;
+    for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) area += geometry.face_area(f);
+    link_radius_ = std::sqrt(2.0 * graph.neighbors * area / (std::numbers::pi * graph.num_samples));
+  }
+  sample_of_vertex_.assign(mesh.num_vertices(), -1);
+  sample_points_.reserve(graph.num_samples);
+  for (std::uint32_t i = 0; i < graph.num_samples; ++i) {
+    sample_of_vertex_[graph.sample_vertex[i]] = static_cast<std::int32_t>(i);
+    sample_points_.push_back(SurfacePoint::vertex(graph.sample_vertex[i]));
+  }
+  bbox_diagonal_ = bounding_box_diagonal(mesh);
+}
+
+GeodesicQuery::~GeodesicQuery() = default;
+
+QueryScratch GeodesicQuery::make_scratch() const {
+  return QueryScratch(std::make_unique<QueryScratch::Impl>(*mesh_, *geometry_, sample_points_,
+                                                           graph_.num_samples));
+}
+
+SurfacePoint GeodesicQuery::sample_point(std::uint32_t sample) const {
+  if (sample >= graph_.num_samples) {
+    throw InvalidInput("SampleOutOfRange", "sample " + std::to_string(sample) +
+                                               " out of range (the graph has " +
+                                               std::to_string(graph_.num_samples) + " samples)");
+  }
+  return sample_points_[sample];
+}
+
+SnapResult GeodesicQuery::snap(const Vec3& position) const {
+  std::call_once(snap_index_once_,
+                 [this] { snap_index_ = std::make_unique<ClosestPointIndex>(*mesh_); });
+  const ClosestPointResult closest = snap_index_->closest(position);
+  if (closest.distance > options_.snap_tolerance * bbox_diagonal_) {
+    throw InvalidInput("TooFarFromSurface",
+                       "position is " + std::to_string(closest.distance) +
+                           " from the surface, more than the tolerance " +
+                           std::to_string(options_.snap_tolerance * bbox_diagonal_) + " (" +
+                           std::to_string(options_.snap_tolerance) +
+                           " of the bounding-box diagonal)");
+  }
+  return {closest.point, closest.position, closest.distance};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Linking (Algorithm 1, lines 1-6): every sample within the link radius, with its exact
+// distance.
+
+bool GeodesicQuery::link_by_covers(const SurfacePoint& p, Links& out) const {
+  if (p.kind != SurfacePoint::Kind::Vertex) return false;
+  const std::uint32_t begin = graph_.cover_offsets[p.id], end = graph_.cover_offsets[p.id + 1];
+  if (begin == end) return false;  // no cover table (imported graph) or an uncovered vertex
+  out.samples.clear();
+  out.region.clear();
+  out.longest = 0;
+  for (std::uint32_t c = begin; c < end; ++c) {
+    const double d = graph_.cover_distance[c];
+    out.samples.emplace_back(graph_.cover_sample[c], d);
+    out.longest = std::max(out.longest, d);
+  }
+  return true;
+}
+
+void GeodesicQuery::solve_within_link_radius(const SurfacePoint& p,
+                                             ExactGeodesicSolver& solver) const {
+  ExactGeodesicOptions bounded;
+  bounded.max_distance = link_radius_;
+  solver.solve(p, bounded);
+}
+
+void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver,
+                                  QueryScratch::Impl& s, Links& out) const {
+  out.samples.clear();
+  out.region.clear();
+  out.longest = 0;
+  solve_within_link_radius(p, solver);
+  for (std::uint32_t v : solver.touched_vertices()) {
+    const std::int32_t sample = sample_of_vertex_[v];
+    if (sample < 0) continue;
+    const double d = solver.distance(v);  // finite only within the final radius
+    if (d < kInfinity) {
+      out.samples.emplace_back(static_cast<std::uint32_t>(sample), d);
+      out.longest = std::max(out.longest, d);
+    }
+  }
+  if (out.samples.empty()) {
+    // No sample within rho (a sparse spot): link to the nearest one instead.
+    ExactGeodesicOptions nearest;
+    nearest.stop_after_targets = 1;
+    const GeodesicSource source{p, 0.0};
+    solver.solve(std::span<const GeodesicSource>(&source, 1), s.targets, nearest);
+    for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
+      const double d = solver.settled_target_distances()[k];
+      out.samples.emplace_back(solver.settled_targets()[k], d);
+      out.longest = std::max(out.longest, d);
+    }
+  }
+}
+
+std::vector<PathPoint> GeodesicQuery::exact_piece(const SurfacePoint& from, const SurfacePoint& to,
+                                                  double length,
+                                                  ExactGeodesicSolver& solver) const {
+  ExactGeodesicOptions bounded;
+  bounded.max_distance = length * (1 + 1e-9) + 1e-300;
+  solver.solve(from, bounded);
+  return solver.path_to(to).points;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Searches on the augmented graph. Each returns the best s-t distance (or `best` if the graph
+// does not improve on it) and the sample where the two halves meet (-1 cast: none).
+
+double GeodesicQuery::search(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,
+                             double upper_bound, std::uint32_t& meet,
+                             std::uint32_t& settled) const {
+  s.new_search();
+  meet = UINT32_MAX;
+  settled = 0;
+  switch (options_.search) {
+    case GraphSearch::Bidirectional:
+      return search_bidirectional(s, from_s, from_t, upper_bound, meet, settled);
+    case GraphSearch::MeetInTheMiddle:
+      return search_meet_in_the_middle(s, from_s, from_t, upper_bound, meet, settled);
+    case GraphSearch::Dijkstra:
+      return search_dijkstra(s, from_s, from_t, upper_bound, meet, settled);
+  }
+  return upper_bound;
+}
+
+namespace {
+
+// Seeds one side's labels from a query point's links and records meetings with the other side.
+template <class Meet>
+void seed_side(QueryScratch::Impl& s, int side, std::span<const std::pair<std::uint32_t, double>>
+                                                    links,
+               bool push, Meet&& on_label) {
+  for (const auto& [i, d] : links) {
+    s.touch(i);
+    if (d < s.label[side][i]) {
+      s.label[side][i] = d;
+      s.parent[side][i] = kFromQueryPoint;
+      if (push) heap_push(s.heap[side], {d, i, static_cast<std::uint32_t>(side)});
+      on_label(i);
+    }
+  }
+}
+
+}  // namespace
+
+double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& from_s,
+                                           const Links& from_t, double best,
+                                           std::uint32_t& meet, std::uint32_t& settled) const {
+  auto check_meeting = [&](std::uint32_t i) {
+    const double total = s.label[0][i] + s.label[1][i];
+    if (total < best) {
+      best = total;
+      meet = i;
+    }
+  };
+  seed_side(s, 0, from_s.samples, true, check_meeting);
+  seed_side(s, 1, from_t.samples, true, check_meeting);
+  while (!s.heap[0].empty() || !s.heap[1].empty()) {
+    const double top0 = s.heap[0].empty() ? kInfinity : s.heap[0].front().key;
+    const double top1 = s.heap[1].empty() ? kInfinity : s.heap[1].front().key;
+    // No s-t path through an unsettled sample can be shorter than top0 + top1.
+    if (top0 + top1 >= best) break;
+    const int side = top0 <= top1 ? 0 : 1;
+    const HeapEntry top = heap_pop(s.heap[side]);
+    if (top.key > s.label[side][top.node] || s.is_settled(side, top.node)) continue;
+    s.settled_stamp[side][top.node] = s.generation;
+    ++settled;
+    for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
+         ++e) {
+      const std::uint32_t j = graph_.edge_target[e];
+      const double d = top.key + graph_.edge_distance[e];
+      s.touch(j);
+      if (d < s.label[side][j]) {
+        s.label[side][j] = d;
+        s.parent[side][j] = static_cast<std::int32_t>(top.node);
+        s.parent_edge[side][j] = e;
+        heap_push(s.heap[side], {d, j, static_cast<std::uint32_t>(side)});
+        check_meeting(j);
+      }
+    }
+  }
+  return best;
+}
+
+double GeodesicQuery::search_meet_in_the_middle(QueryScratch::Impl& s, const Links& from_s,
+                                                const Links& from_t, double best,
+                                                std::uint32_t& meet,
+                                                std::uint32_t& settled) const {
+  // R of the augmented graph: its longest edge, links included.
+  const double R = std::max({graph_.longest_edge, from_s.longest, from_t.longest});
+  auto check_meeting = [&](std::uint32_t i) {
+    const double total = s.label[0][i] + s.label[1][i];
+    if (total < best) {
+      best = total;
+      meet = i;
+    }
+  };
+  std::vector<HeapEntry>& heap = s.heap[0];  // one queue for both fronts, as in Algorithm 1
+  for (int side = 0; side < 2; ++side) {
+    const Links& links = side == 0 ? from_s : from_t;
+    seed_side(s, side, links.samples, false, check_meeting);
+    for (const auto& [i, d] : links.samples) {
+      if (s.label[side][i] == d) heap_push(heap, {d, i, static_cast<std::uint32_t>(side)});
+    }
+  }
+  while (!heap.empty()) {
+    const HeapEntry top = heap_pop(heap);
+    // Theorem 3.1: some sample on the best path has both labels <= (best + R) / 2.
+    if (top.key > 0.5 * (best + R)) break;
+    const int side = static_cast<int>(top.side);
+    if (top.key > s.label[side][top.node] || s.is_settled(side, top.node)) continue;
+    s.settled_stamp[side][top.node] = s.generation;
+    ++settled;
+    for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
+         ++e) {
+      const std::uint32_t j = graph_.edge_target[e];
+      const double d = top.key + graph_.edge_distance[e];
+      s.touch(j);
+      if (d < s.label[side][j]) {
+        s.label[side][j] = d;
+        s.parent[side][j] = static_cast<std::int32_t>(top.node);
+        s.parent_edge[side][j] = e;
+        heap_push(heap, {d, j, top.side});
+        check_meeting(j);
+      }
+    }
+  }
+  return best;
+}
+
+double GeodesicQuery::search_dijkstra(QueryScratch::Impl& s, const Links& from_s,
+                                      const Links& from_t, double best, std::uint32_t& meet,
+                                      std::uint32_t& settled) const {
+  // t is one more node, reached from each of its linked samples: side 1 holds those link
+  // lengths and is never propagated.
+  auto check_meeting = [&](std::uint32_t i) {
+    const double total = s.label[0][i] + s.label[1][i];
+    if (total < best) {
+      best = total;
+      meet = i;
+    }
+  };
+  seed_side(s, 1, from_t.samples, false, [](std::uint32_t) {});
+  seed_side(s, 0, from_s.samples, true, check_meeting);
+  while (!s.heap[0].empty()) {
+    const HeapEntry top = heap_pop(s.heap[0]);
+    if (top.key >= best) break;  // t is settled
+    if (top.key > s.label[0][top.node] || s.is_settled(0, top.node)) continue;
+    s.settled_stamp[0][top.node] = s.generation;
+    ++settled;
+    for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
+         ++e) {
+      const std::uint32_t j = graph_.edge_target[e];
+      const double d = top.key + graph_.edge_distance[e];
+      s.touch(j);
+      if (d < s.label[0][j]) {
+        s.label[0][j] = d;
+        s.parent[0][j] = static_cast<std::int32_t>(top.node);
+        s.parent_edge[0][j] = e;
+        heap_push(s.heap[0], {d, j, 0});
+        check_meeting(j);
+      }
+    }
+  }
+  return best;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Point to point.
+
+namespace {
+
+Unreachable unreachable(const SurfacePoint& s, const SurfacePoint& t) {
+  return Unreachable("Unreachable", "no path between " + s.to_string() + " and " + t.to_string() +
+                                        ": they lie in different connected components");
+}
+
+}  // namespace
+
+// Links both points; returns the exact distance when they are within the link radius (then the
+// links may be incomplete), else kInfinity. `solved_s`/`solved_t` say whose solver holds a solve
+// from that point.
+double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
+                                QueryScratch::Impl& w, bool& solved_s, bool& solved_t) const {
+  solved_s = solved_t = false;
+  if (!link_by_covers(s, w.links_s)) {
+    link_by_solve(s, w.solver_s, w, w.links_s);
+    solved_s = true;
+    const double exact = w.solver_s.distance(t);
+    if (exact < kInfinity) return exact;
+  }
+  if (!link_by_covers(t, w.links_t)) {
+    link_by_solve(t, w.solver_t, w, w.links_t);
+    solved_t = true;
+    const double exact = w.solver_t.distance(s);
+    if (exact < kInfinity) return exact;
+  }
+  if (!solved_s && !solved_t) {  // two vertices: one bounded solve decides exactness
+    solve_within_link_radius(s, w.solver_s);
+    solved_s = true;
+    return w.solver_s.distance(t);
+  }
+  return kInfinity;
+}
+
+DistanceResult GeodesicQuery::distance(const SurfacePoint& s, const SurfacePoint& t,
+                                       QueryScratch& scratch) const {
+  s.validate(*mesh_);
+  t.validate(*mesh_);
+  QueryScratch::Impl& w = *scratch.impl_;
+  DistanceResult result;
+  bool solved_s = false, solved_t = false;
+  result.distance = link_pair(s, t, w, solved_s, solved_t);
+  if (result.distance < kInfinity) {
+    result.exact = true;
+    return result;
+  }
+  std::uint32_t meet = 0;
+  result.distance = search(w, w.links_s, w.links_t, kInfinity, meet, result.samples_settled);
+  if (result.distance == kInfinity) throw unreachable(s, t);
+  return result;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Paths (paper Fig. 5): the link pieces come from the local solves' backtraces; each sample to
+// sample piece is traced along the graph's stored direction and checked against the next
+// sample, or solved exactly when tracing cannot be trusted.
+
+namespace {
+
+void append_points(std::vector<PathPoint>& out, std::span<const PathPoint> points) {
+  for (const PathPoint& p : points) {
+    if (!out.empty()) {
+      const SurfacePoint& q = out.back().point;
+      if (q.kind == p.point.kind && q.id == p.point.id && q.t == p.point.t &&
+          q.bary == p.point.bary) {
+        continue;
+      }
+    }
+    out.push_back(p);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+/// The stored direction as a unit face direction; false when it is unknown (zero).
+bool stored_direction(const GraphDirection& d, FaceDirection& out) {
+  if (d.x == 0 && d.y == 0) return false;
+  const double len = std::hypot(double{d.x}, double{d.y});
+  out = {d.face, d.x / len, d.y / len};
+  return true;
+}
+
+}  // namespace
+
+void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sample,
+                                   std::uint32_t to_sample, std::uint32_t edge,
+                                   PathResult& out) const {
+  // The edge runs from one of the two samples to the other; orient it from `a` to `b`.
+  const std::uint32_t a = graph_.edge_target[edge] == to_sample ? from_sample : to_sample;
+  const std::uint32_t b = a == from_sample ? to_sample : from_sample;
+  const double length = graph_.edge_distance[edge];
+  const double tolerance = options_.trace_tolerance * length;
+  const std::uint32_t a_vertex = graph_.sample_vertex[a], b_vertex = graph_.sample_vertex[b];
+
+  // Traces from `sample` along graph edge `e` for the edge's length; false if the direction
+  // is unknown or not usable.
+  auto trace = [&](std::uint32_t sample, std::uint32_t e, GeodesicTrace& into) {
+    FaceDirection direction;
+    if (!stored_direction(graph_.edge_direction[e], direction)) return false;
+    try {
+      // Passing within 1e-6 of an edge's length of a vertex counts as hitting it: stored
+      // directions are floats (~1e-7), and a trace that grazes a saddle on the wrong side
+      // diverges, while one that stops there can be joined (below).
+      GeodesicTraceOptions options;
+      options.vertex_tolerance = 1e-6;
+      trace_geodesic(*mesh_, *geometry_, SurfacePoint::vertex(graph_.sample_vertex[sample]),
+                     direction, length, options, into);  // reuses into's buffer
+    } catch (const InvalidInput&) {
+      return false;  // a stored direction a hair outside its face's wedge
+    }
+    return true;
+  };
+  auto ends_at = [&](const GeodesicTrace& t, std::uint32_t vertex) {
+    if (t.stop == TraceStop::HitVertex) {
+      return static_cast<std::uint32_t>(t.stop_vertex) == vertex &&
+             std::abs(t.length - length) <= tolerance;
+    }
+    return t.stop == TraceStop::Completed &&
+           norm(t.points.back().position - mesh_->position(vertex)) <= tolerance;
+  };
+
+  std::vector<PathPoint>& piece = s.piece;
+  piece.clear();
+  bool done = false;
+  if (trace(a, edge, s.trace)) {
+    if (ends_at(s.trace, b_vertex)) {
+      piece.assign(s.trace.points.begin(), s.trace.points.end());
+      piece.back() = {SurfacePoint::vertex(b_vertex), mesh_->position(b_vertex)};
+      done = true;
+    } else if (s.trace.stop == TraceStop::HitVertex) {
+      // The geodesic bends at a vertex (a saddle): trace back from b along the reverse edge;
+      // if both traces meet at that vertex with the right total length, join them.
+      std::uint32_t reverse = graph_.edge_offsets[b];
+      while (reverse < graph_.edge_offsets[b + 1] && graph_.edge_target[reverse] != a) ++reverse;
+      if (reverse < graph_.edge_offsets[b + 1] && trace(b, reverse, s.trace_back) &&
+          s.trace_back.stop == TraceStop::HitVertex &&
+          s.trace_back.stop_vertex == s.trace.stop_vertex &&
+          std::abs(s.trace.length + s.trace_back.length - length) <= tolerance) {
+        piece.assign(s.trace.points.begin(), s.trace.points.end());
+        piece.insert(piece.end(), s.trace_back.points.rbegin() + 1, s.trace_back.points.rend());
+        piece.back() = {SurfacePoint::vertex(b_vertex), mesh_->position(b_vertex)};
+        done = true;
+      } else {
+        // Several bends: the traced part up to the first one, then an exact solve for the
+        // rest, bounded by the remaining length (the geodesic passes through that vertex).
+        const auto bend = static_cast<std::uint32_t>(s.trace.stop_vertex);
+        const double rest = length - s.trace.length;
+        ExactGeodesicOptions bounded;
+        bounded.max_distance = rest * (1 + 1e-9) + tolerance;
+        s.solver_s.solve(SurfacePoint::vertex(bend), bounded);
+        const double found = s.solver_s.distance(b_vertex);
+        if (found < kInfinity && std::abs(found - rest) <= tolerance) {
+          piece.assign(s.trace.points.begin(), s.trace.points.end());
+          const GeodesicPath tail = s.solver_s.path_to(SurfacePoint::vertex(b_vertex));
+          piece.insert(piece.end(), tail.points.begin() + 1, tail.points.end());
+          done = true;
+          ++out.exact_segments;
+        }
+      }
+    }
+  }
+  if (!done) {
+    piece = exact_piece(SurfacePoint::vertex(a_vertex), SurfacePoint::vertex(b_vertex), length,
+                        s.solver_s);
+    ++out.exact_segments;
+  }
+  if (a != from_sample) std::reverse(piece.begin(), piece.end());
+  append_points(out.points, piece);
+}
+
+PathResult GeodesicQuery::path(const SurfacePoint& s, const SurfacePoint& t,
+                               QueryScratch& scratch) const {
+  s.validate(*mesh_);
+  t.validate(*mesh_);
+  QueryScratch::Impl& w = *scratch.impl_;
+  PathResult result;
+  bool solved_s = false, solved_t = false;
+  result.distance = link_pair(s, t, w, solved_s, solved_t);
+  if (result.distance < kInfinity) {
+    result.exact = true;
+    if (solved_s && w.solver_s.distance(t) < kInfinity) {
+      result.points = w.solver_s.path_to(t).points;
+    } else {
+      result.points = w.solver_t.path_to(s).points;
+      std::reverse(result.points.begin(), result.points.end());
+    }
+    return result;
+  }
+  std::uint32_t meet = UINT32_MAX;
+  std::uint32_t settled = 0;
+  result.distance = search(w, w.links_s, w.links_t, kInfinity, meet, settled);
+  if (result.distance == kInfinity || meet == UINT32_MAX) throw unreachable(s, t);
+  // Sample sequence: s-side parents back from the meeting sample, then t-side parents.
+  std::vector<std::uint32_t> edges;  // graph edge of each hop (parallel to samples[1..])
+  for (std::int32_t i = static_cast<std::int32_t>(meet); i != kFromQueryPoint;
+       i = w.parent[0][static_cast<std::uint32_t>(i)]) {
+    result.samples.push_back(static_cast<std::uint32_t>(i));
+  }
+  std::reverse(result.samples.begin(), result.samples.end());
+  for (std::size_t k = 1; k < result.samples.size(); ++k) {
+    edges.push_back(w.parent_edge[0][result.samples[k]]);
+  }
+  for (std::int32_t i = w.parent[1][meet]; i != kFromQueryPoint;
+       i = w.parent[1][static_cast<std::uint32_t>(i)]) {
+    edges.push_back(w.parent_edge[1][result.samples.back()]);
+    result.samples.push_back(static_cast<std::uint32_t>(i));
+  }
+  // The end pieces: from a link solve's backtrace when there was one, else a bounded exact
+  // solve along the (cover) link. Both before solver_s is reused for exact segments.
+  const SurfacePoint& first = sample_points_[result.samples.front()];
+  const SurfacePoint& last = sample_points_[result.samples.back()];
+  std::vector<PathPoint> tail;  // t -> last sample, reversed below
+  if (solved_t && w.solver_t.distance(last) < kInfinity) {
+    tail = w.solver_t.path_to(last).points;
+  } else {
+    tail = exact_piece(t, last, w.get(1, result.samples.back()), w.solver_t);
+  }
+  std::reverse(tail.begin(), tail.end());
+  if (solved_s && w.solver_s.distance(first) < kInfinity) {
+    result.points = w.solver_s.path_to(first).points;
+  } else {
+    result.points = exact_piece(s, first, w.get(0, result.samples.front()), w.solver_s);
+  }
+  for (std::size_t k = 0; k + 1 < result.samples.size(); ++k) {
+    append_segment(w, result.samples[k], result.samples[k + 1], edges[k], result);
+  }
+  append_points(result.points, tail);
+  return result;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Distance field (§3.2): one multi-source search over the graph from the sources' links, then
+// each vertex takes the best of its covering samples; vertices inside a source's own exact
+// region keep their exact distance.
+
+void GeodesicQuery::graph_distances_from(QueryScratch::Impl& s,
+                                         std::span<const Links* const> sources,
+                                         double max_distance) const {
+  s.new_search();
+  for (std::uint32_t k = 0; k < sources.size(); ++k) {
+    for (const auto& [i, d] : sources[k]->samples) {
+      s.touch(i);
+      if (d < s.label[0][i]) {
+        s.label[0][i] = d;
+        s.origin[i] = k;
+        heap_push(s.heap[0], {d, i, 0});
+      }
+    }
+  }
+  while (!s.heap[0].empty()) {
+    const HeapEntry top = heap_pop(s.heap[0]);
+    if (top.key > max_distance) break;
+    if (top.key > s.label[0][top.node] || s.is_settled(0, top.node)) continue;
+    s.settled_stamp[0][top.node] = s.generation;
+    for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
+         ++e) {
+      const std::uint32_t j = graph_.edge_target[e];
+      const double d = top.key + graph_.edge_distance[e];
+      s.touch(j);
+      if (d < s.label[0][j]) {
+        s.label[0][j] = d;
+        s.origin[j] = s.origin[top.node];
+        heap_push(s.heap[0], {d, j, 0});
+      }
+    }
+  }
+}
+
+DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryScratch& scratch,
+                                   const DistanceFieldOptions& options) const {
+  if (sources.empty()) throw InvalidInput("NoSources", "a distance field needs a source");
+  if (graph_.cover_sample.empty()) {
+    throw InvalidInput("NoCoverTable",
+                       "this graph has no per-vertex cover table (imported from the paper's text "
+                       "format?): distance fields need a graph built by geoprox");
+  }
+  if (std::isnan(options.max_distance) || options.max_distance < 0) {
+    throw InvalidInput("BadRadius", "max_distance must be a non-negative number");
+  }
+  for (const SurfacePoint& p : sources) p.validate(*mesh_);
+  QueryScratch::Impl& w = *scratch.impl_;
+  if (w.many.size() < sources.size()) w.many.resize(sources.size());
+  std::vector<const Links*> links(sources.size());
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    Links& l = w.many[k];
+    // Links as for point-to-point queries; the solve within the link radius is needed anyway
+    // for the exact region.
+    if (link_by_covers(sources[k], l)) {
+      solve_within_link_radius(sources[k], w.solver_s);
+    } else {
+      link_by_solve(sources[k], w.solver_s, w, l);
+    }
+    for (std::uint32_t v : w.solver_s.touched_vertices()) {
+      const double d = w.solver_s.distance(v);
+      if (d <= options.max_distance) l.region.emplace_back(v, d);
+    }
+    links[k] = &l;
+  }
+  graph_distances_from(w, links, options.max_distance);
+
+  const auto nv = static_cast<std::int64_t>(mesh_->num_vertices());
+  DistanceField out;
+  out.distances.assign(static_cast<std::size_t>(nv), kInfinity);
+  out.nearest_source.assign(static_cast<std::size_t>(nv), -1);
+  const QueryScratch::Impl& labels = w;
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+#pragma omp parallel for num_threads(threads) schedule(static, 4096) if (threads > 1)
+  for (std::int64_t v = 0; v < nv; ++v) {
+    double best = kInfinity;
+    std::int32_t from = -1;
+    for (std::uint32_t c = graph_.cover_offsets[static_cast<std::size_t>(v)];
+         c < graph_.cover_offsets[static_cast<std::size_t>(v) + 1]; ++c) {
+      const std::uint32_t i = graph_.cover_sample[c];
+      const double d = labels.get(0, i) + static_cast<double>(graph_.cover_distance[c]);
+      if (d < best) {
+        best = d;
+        from = static_cast<std::int32_t>(labels.origin[i]);
+      }
+    }
+    if (best <= options.max_distance) {
+      out.distances[static_cast<std::size_t>(v)] = best;
+      out.nearest_source[static_cast<std::size_t>(v)] = from;
+    }
+  }
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    for (const auto& [v, d] : w.many[k].region) {
+      if (d < out.distances[v]) {
+        out.distances[v] = d;
+        out.nearest_source[v] = static_cast<std::int32_t>(k);
+      }
+    }
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Matrix: every point is linked once; one graph search per source serves all targets.
+
+std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
+                                          std::span<const SurfacePoint> targets,
+                                          QueryScratch& scratch) const {
+  for (const SurfacePoint& p : sources) p.validate(*mesh_);
+  for (const SurfacePoint& p : targets) p.validate(*mesh_);
+  QueryScratch::Impl& w = *scratch.impl_;
+  const std::size_t S = sources.size(), T = targets.size();
+  std::vector<double> out(S * T, kInfinity);
+  if (S == 0 || T == 0) return out;
+  if (w.many.size() < S + T) w.many.resize(S + T);
+  // Links as for point-to-point queries. Sources are always solved within the link radius (a
+  // vertex source too) so that every pair closer than the radius gets its exact distance;
+  // targets only when they are not vertices.
+  for (std::size_t j = 0; j < T; ++j) {
+    if (link_by_covers(targets[j], w.many[S + j])) continue;
+    link_by_solve(targets[j], w.solver_t, w, w.many[S + j]);
+    for (std::size_t i = 0; i < S; ++i) {
+      out[i * T + j] = std::min(out[i * T + j], w.solver_t.distance(sources[i]));
+    }
+  }
+  for (std::size_t i = 0; i < S; ++i) {
+    Links& l = w.many[i];
+    if (link_by_covers(sources[i], l)) {
+      solve_within_link_radius(sources[i], w.solver_s);
+    } else {
+      link_by_solve(sources[i], w.solver_s, w, l);
+    }
+    for (std::size_t j = 0; j < T; ++j) {
+      out[i * T + j] = std::min(out[i * T + j], w.solver_s.distance(targets[j]));
+    }
+    const Links* one[] = {&l};
+    // The search only needs to run until every target's links are settled; the largest
+    // current estimate bounds how far that can be.
+    double farthest = 0;
+    bool unbounded = false;
+    for (std::size_t j = 0; j < T; ++j) {
+      if (out[i * T + j] == kInfinity) unbounded = true;
+      farthest = std::max(farthest, out[i * T + j]);
+    }
+    graph_distances_from(w, one, unbounded ? kInfinity : farthest);
+    for (std::size_t j = 0; j < T; ++j) {
+      double best = out[i * T + j];
+      for (const auto& [sample, d] : w.many[S + j].samples) best = std::min(best, w.get(0, sample) + d);
+      out[i * T + j] = best;
+    }
+  }
+  return out;
+}
+
+}  // namespace geoprox

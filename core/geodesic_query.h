@@ -1,0 +1,198 @@
+// Queries on a proximity graph: "Lightweight preprocessing and fast query of geodesic distance
+// via proximity graph", §3 (Algorithm 1 for point-to-point distance and path, §3.2 for the
+// distance field), plus a distance matrix that shares the linking and the graph searches.
+//
+// Linking follows the paper's text (§3.1: "the geodesic distances from s to its neighboring
+// samples in a geodesic disk of radius R"): every query point is linked to all samples within the
+// graph's link radius rho, chosen at build time so that such a disk holds m_st = 2 m_P samples on
+// average. A point inside a face or on an edge gets its links from one exact solve bounded by rho;
+// a vertex takes them from its row of the cover table, which lists exactly the samples within rho
+// (every sample's build-time solve reached rho). Pairs closer than rho are answered exactly from
+// the solve of one of them: close pairs, where the paper's worst errors are, come out exact.
+// Because the radius is the same for everyone, "t within rho of s" is symmetric, answers are
+// symmetric, and a distance field (covers of each vertex) equals point-to-point queries to its
+// vertices. Every graph edge and link is an exact geodesic, so graph answers are lengths of real
+// paths: upper bounds of the true distance.
+//
+// Thread safety: a GeodesicQuery is immutable after construction and may be shared by any
+// number of threads; each thread passes its own QueryScratch, which holds every buffer a query
+// needs (two exact solvers, the graph labels stamped by generation, heaps), so that nothing is
+// allocated in proportion to the mesh or the graph once a scratch has warmed up.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <vector>
+
+#include "core/closest_point.h"
+#include "core/exact_geodesic.h"
+#include "core/intrinsic_geometry.h"
+#include "core/mesh.h"
+#include "core/proximity_graph.h"
+#include "core/surface_point.h"
+
+namespace geoprox {
+
+struct QueryLinks;  // geodesic_query.cpp: one query point's links
+
+/// How the augmented graph is searched between s and t (all three give the same distance).
+enum class GraphSearch : std::uint8_t {
+  /// Two fronts, stopped once the smallest labels of both sum to the best meeting distance
+  /// (classic bidirectional Dijkstra). Settles the fewest samples: the default.
+  Bidirectional = 0,
+  /// The paper's Algorithm 1: one queue for both fronts, stopped once a popped label reaches
+  /// (best + R) / 2, R being the longest edge of the augmented graph.
+  MeetInTheMiddle = 1,
+  /// Plain single-source Dijkstra from s until t is settled (the reference for tests).
+  Dijkstra = 2,
+};
+
+struct GeodesicQueryOptions {
+  GraphSearch search = GraphSearch::Bidirectional;
+  /// A traced path segment between two samples is accepted when it ends within this fraction
+  /// of the segment's length from the next sample; otherwise that segment comes from an exact
+  /// solve. The snap moves the end by at most this much, so the polyline length stays within
+  /// about tolerance^2 / 2 (relative) of the distance.
+  double trace_tolerance = 1e-4;
+  /// Positions farther than this from the surface are refused by snap(), as a fraction of
+  /// the mesh's bounding-box diagonal.
+  double snap_tolerance = 0.05;
+};
+
+/// Per-thread buffers for queries on one GeodesicQuery (see the file comment). Movable, not
+/// copyable; create one per thread with GeodesicQuery::make_scratch().
+class QueryScratch {
+ public:
+  QueryScratch(QueryScratch&&) noexcept;
+  QueryScratch& operator=(QueryScratch&&) noexcept;
+  ~QueryScratch();
+  struct Impl;  ///< defined in geodesic_query.cpp
+
+ private:
+  friend class GeodesicQuery;
+  explicit QueryScratch(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+struct DistanceResult {
+  double distance = kInfinity;
+  /// True when the answer came from an exact solve (s and t within one local region).
+  bool exact = false;
+  /// Samples whose graph label became final during the search (0 for exact answers).
+  std::uint32_t samples_settled = 0;
+};
+
+struct PathResult {
+  double distance = kInfinity;
+  bool exact = false;
+  /// From s to t: s, every edge crossing, the samples passed through, t. Starts exactly at s
+  /// and ends exactly at t; its length equals `distance` (see trace_tolerance).
+  std::vector<PathPoint> points;
+  /// The samples the path passes through, in order from s.
+  std::vector<std::uint32_t> samples;
+  /// Sample-to-sample segments that came from an exact solve because tracing the stored
+  /// direction was not trusted (a vertex on the way, a boundary, or a miss).
+  std::uint32_t exact_segments = 0;
+};
+
+struct DistanceFieldOptions {
+  /// Vertices farther than this from every source get kInfinity (mesh units).
+  double max_distance = kInfinity;
+  /// OpenMP threads for the per-vertex pass; 0 uses OpenMP's default, 1 runs inline (what a
+  /// server with its own thread pool wants).
+  int threads = 1;
+};
+
+struct DistanceField {
+  /// Distance of every vertex from the nearest source (kInfinity: unreachable or beyond
+  /// max_distance).
+  std::vector<double> distances;
+  /// Index of that source per vertex (-1 where unreachable): the geodesic Voronoi diagram.
+  std::vector<std::int32_t> nearest_source;
+};
+
+struct SnapResult {
+  SurfacePoint point;
+  Vec3 position;          ///< where the position was moved to
+  double moved = 0;       ///< distance moved (mesh units)
+};
+
+class GeodesicQuery {
+ public:
+  using Options = GeodesicQueryOptions;
+
+  /// All three must outlive the query object; the graph is usually a view into a mapped file.
+  /// Throws InvalidInput ("GraphMismatch") if the graph was built for another vertex count.
+  GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                const ProximityGraphView& graph, const Options& options = {});
+  ~GeodesicQuery();
+
+  QueryScratch make_scratch() const;
+
+  /// Geodesic distance between two surface points. Throws InvalidInput for invalid points and
+  /// Unreachable when they lie in different components.
+  DistanceResult distance(const SurfacePoint& s, const SurfacePoint& t,
+                          QueryScratch& scratch) const;
+  /// Distance and the path as a polyline on the surface.
+  PathResult path(const SurfacePoint& s, const SurfacePoint& t, QueryScratch& scratch) const;
+  /// Distances from the nearest of `sources` to every vertex (paper §3.2).
+  DistanceField field(std::span<const SurfacePoint> sources, QueryScratch& scratch,
+                      const DistanceFieldOptions& options = {}) const;
+  /// Row-major |sources| x |targets| distances (kInfinity for unreachable pairs); equal to
+  /// distance() for each pair.
+  std::vector<double> matrix(std::span<const SurfacePoint> sources,
+                             std::span<const SurfacePoint> targets, QueryScratch& scratch) const;
+
+  /// The vertex of sample i (throws InvalidInput "SampleOutOfRange").
+  SurfacePoint sample_point(std::uint32_t sample) const;
+  /// The closest surface point to a 3D position (the spatial index is built on first use).
+  /// Throws InvalidInput ("BadPosition" for non-finite coordinates, "TooFarFromSurface" when it
+  /// is farther than snap_tolerance of the bounding-box diagonal).
+  SnapResult snap(const Vec3& position) const;
+
+  const TriangleMesh& mesh() const { return *mesh_; }
+  const IntrinsicGeometry& geometry() const { return *geometry_; }
+  const ProximityGraphView& graph() const { return graph_; }
+  /// rho: the graph's link radius (or, for an imported graph without one, the radius at which a
+  /// disk holds 2 m_P samples on average).
+  double link_radius() const { return link_radius_; }
+
+ private:
+  using Links = QueryLinks;
+  double link_pair(const SurfacePoint& s, const SurfacePoint& t, QueryScratch::Impl& w,
+                   bool& solved_s, bool& solved_t) const;
+  bool link_by_covers(const SurfacePoint& p, Links& out) const;
+  void link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
+                     Links& out) const;
+  void solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver) const;
+  std::vector<PathPoint> exact_piece(const SurfacePoint& from, const SurfacePoint& to,
+                                     double length, ExactGeodesicSolver& solver) const;
+  double search(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,
+                double upper_bound, std::uint32_t& meet, std::uint32_t& settled) const;
+  double search_bidirectional(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,
+                              double best, std::uint32_t& meet, std::uint32_t& settled) const;
+  double search_meet_in_the_middle(QueryScratch::Impl& s, const Links& from_s,
+                                   const Links& from_t, double best, std::uint32_t& meet,
+                                   std::uint32_t& settled) const;
+  double search_dijkstra(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,
+                         double best, std::uint32_t& meet, std::uint32_t& settled) const;
+  void graph_distances_from(QueryScratch::Impl& s, std::span<const Links* const> sources,
+                            double max_distance) const;
+  void append_segment(QueryScratch::Impl& s, std::uint32_t from_sample, std::uint32_t to_sample,
+                      std::uint32_t edge, PathResult& out) const;
+
+  const TriangleMesh* mesh_;
+  const IntrinsicGeometry* geometry_;
+  ProximityGraphView graph_;
+  Options options_;
+  double link_radius_ = 0;
+  std::vector<std::int32_t> sample_of_vertex_;  ///< sample index per vertex, or -1
+  std::vector<SurfacePoint> sample_points_;
+  double bbox_diagonal_ = 0;
+  mutable std::once_flag snap_index_once_;
+  mutable std::unique_ptr<ClosestPointIndex> snap_index_;
+};
+
+}  // namespace geoprox
