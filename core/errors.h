@@ -5,6 +5,8 @@
 // clients as `data.reason`, plus a concrete human-readable message.
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <stdexcept>
 #include <string>
 
@@ -43,6 +45,31 @@ class FileError : public Error {
 class Unreachable : public Error {
  public:
   using Error::Error;
+};
+
+/// Work stopped before it finished: its deadline passed ("DeadlineExceeded") or its caller gave
+/// up ("Cancelled"), see QueryInterrupt.
+class Interrupted : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A deadline and/or a cancel flag that long-running work polls (every few hundred steps) and
+/// answers by throwing Interrupted. Owned by the caller; read-only for the work.
+struct QueryInterrupt {
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+  const std::atomic<bool>* cancelled = nullptr;
+
+  /// Throws Interrupted if the deadline has passed or the flag is set.
+  void check() const {
+    if (cancelled && cancelled->load(std::memory_order_relaxed)) {
+      throw Interrupted("Cancelled", "the request was cancelled");
+    }
+    if (deadline != std::chrono::steady_clock::time_point::max() &&
+        std::chrono::steady_clock::now() > deadline) {
+      throw Interrupted("DeadlineExceeded", "the request ran past its deadline");
+    }
+  }
 };
 
 /// An internal invariant failed: a bug in geoprox, never the caller's fault.

@@ -234,6 +234,7 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
       break;
     }
     pop();
+    if (options.interrupt && (stats_.queue_pops & 1023) == 0) options.interrupt->check();
     if (top.item & kVertexItem) {
       const std::uint32_t v = top.item & ~kVertexItem;
       if (vertex_emitted_[v] || top.key != vertex_distance_[v]) continue;

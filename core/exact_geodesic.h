@@ -21,6 +21,7 @@
 #include <span>
 #include <vector>
 
+#include "core/errors.h"
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
 #include "core/surface_point.h"
@@ -79,6 +80,8 @@ struct ExactGeodesicOptions {
   /// With stop_after_targets: do not stop before every point within this distance is final,
   /// even when enough targets are settled (all targets within it are then settled too).
   double min_distance = 0;
+  /// Polled every 1024 queue pops; the solve throws Interrupted when it fires. Not owned.
+  const QueryInterrupt* interrupt = nullptr;
 };
 
 class ExactGeodesicSolver {

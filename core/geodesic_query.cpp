@@ -112,9 +112,16 @@ struct QueryScratch::Impl {
   std::vector<QueryLinks> many;  ///< fields and matrices: one per point
   GeodesicTrace trace, trace_back;
   std::vector<PathPoint> piece;
+  const QueryInterrupt* interrupt = nullptr;
+  std::uint32_t pops = 0;  ///< graph-search pops, for polling the interrupt
+
+  void poll() {
+    if (interrupt && (++pops & 255) == 0) interrupt->check();
+  }
 };
 
 QueryScratch::QueryScratch(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+void QueryScratch::set_interrupt(const QueryInterrupt* interrupt) { impl_->interrupt = interrupt; }
 QueryScratch::QueryScratch(QueryScratch&&) noexcept = default;
 QueryScratch& QueryScratch::operator=(QueryScratch&&) noexcept = default;
 QueryScratch::~QueryScratch() = default;
@@ -194,10 +201,11 @@ bool GeodesicQuery::link_by_covers(const SurfacePoint& p, Links& out) const {
   return true;
 }
 
-void GeodesicQuery::solve_within_link_radius(const SurfacePoint& p,
-                                             ExactGeodesicSolver& solver) const {
+void GeodesicQuery::solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
+                                             const QueryInterrupt* interrupt) const {
   ExactGeodesicOptions bounded;
   bounded.max_distance = link_radius_;
+  bounded.interrupt = interrupt;
   solver.solve(p, bounded);
 }
 
@@ -206,7 +214,7 @@ void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
   out.samples.clear();
   out.region.clear();
   out.longest = 0;
-  solve_within_link_radius(p, solver);
+  solve_within_link_radius(p, solver, s.interrupt);
   for (std::uint32_t v : solver.touched_vertices()) {
     const std::int32_t sample = sample_of_vertex_[v];
     if (sample < 0) continue;
@@ -220,6 +228,7 @@ void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
     // No sample within rho (a sparse spot): link to the nearest one instead.
     ExactGeodesicOptions nearest;
     nearest.stop_after_targets = 1;
+    nearest.interrupt = s.interrupt;
     const GeodesicSource source{p, 0.0};
     solver.solve(std::span<const GeodesicSource>(&source, 1), s.targets, nearest);
     for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
@@ -231,10 +240,11 @@ void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
 }
 
 std::vector<PathPoint> GeodesicQuery::exact_piece(const SurfacePoint& from, const SurfacePoint& to,
-                                                  double length,
-                                                  ExactGeodesicSolver& solver) const {
+                                                  double length, ExactGeodesicSolver& solver,
+                                                  const QueryInterrupt* interrupt) const {
   ExactGeodesicOptions bounded;
   bounded.max_distance = length * (1 + 1e-9) + 1e-300;
+  bounded.interrupt = interrupt;
   solver.solve(from, bounded);
   return solver.path_to(to).points;
 }
@@ -299,6 +309,7 @@ double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& f
     if (top0 + top1 >= best) break;
     const int side = top0 <= top1 ? 0 : 1;
     const HeapEntry top = heap_pop(s.heap[side]);
+    s.poll();
     if (top.key > s.label[side][top.node] || s.is_settled(side, top.node)) continue;
     s.settled_stamp[side][top.node] = s.generation;
     ++settled;
@@ -342,6 +353,7 @@ double GeodesicQuery::search_meet_in_the_middle(QueryScratch::Impl& s, const Lin
   }
   while (!heap.empty()) {
     const HeapEntry top = heap_pop(heap);
+    s.poll();
     // Theorem 3.1: some sample on the best path has both labels <= (best + R) / 2.
     if (top.key > 0.5 * (best + R)) break;
     const int side = static_cast<int>(top.side);
@@ -381,6 +393,7 @@ double GeodesicQuery::search_dijkstra(QueryScratch::Impl& s, const Links& from_s
   seed_side(s, 0, from_s.samples, true, check_meeting);
   while (!s.heap[0].empty()) {
     const HeapEntry top = heap_pop(s.heap[0]);
+    s.poll();
     if (top.key >= best) break;  // t is settled
     if (top.key > s.label[0][top.node] || s.is_settled(0, top.node)) continue;
     s.settled_stamp[0][top.node] = s.generation;
@@ -433,7 +446,7 @@ double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
     if (exact < kInfinity) return exact;
   }
   if (!solved_s && !solved_t) {  // two vertices: one bounded solve decides exactness
-    solve_within_link_radius(s, w.solver_s);
+    solve_within_link_radius(s, w.solver_s, w.interrupt);
     solved_s = true;
     return w.solver_s.distance(t);
   }
@@ -557,6 +570,7 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
         const double rest = length - s.trace.length;
         ExactGeodesicOptions bounded;
         bounded.max_distance = rest * (1 + 1e-9) + tolerance;
+        bounded.interrupt = s.interrupt;
         s.solver_s.solve(SurfacePoint::vertex(bend), bounded);
         const double found = s.solver_s.distance(b_vertex);
         if (found < kInfinity && std::abs(found - rest) <= tolerance) {
@@ -571,7 +585,7 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
   }
   if (!done) {
     piece = exact_piece(SurfacePoint::vertex(a_vertex), SurfacePoint::vertex(b_vertex), length,
-                        s.solver_s);
+                        s.solver_s, s.interrupt);
     ++out.exact_segments;
   }
   if (a != from_sample) std::reverse(piece.begin(), piece.end());
@@ -623,13 +637,14 @@ PathResult GeodesicQuery::path(const SurfacePoint& s, const SurfacePoint& t,
   if (solved_t && w.solver_t.distance(last) < kInfinity) {
     tail = w.solver_t.path_to(last).points;
   } else {
-    tail = exact_piece(t, last, w.get(1, result.samples.back()), w.solver_t);
+    tail = exact_piece(t, last, w.get(1, result.samples.back()), w.solver_t, w.interrupt);
   }
   std::reverse(tail.begin(), tail.end());
   if (solved_s && w.solver_s.distance(first) < kInfinity) {
     result.points = w.solver_s.path_to(first).points;
   } else {
-    result.points = exact_piece(s, first, w.get(0, result.samples.front()), w.solver_s);
+    result.points = exact_piece(s, first, w.get(0, result.samples.front()), w.solver_s,
+                                w.interrupt);
   }
   for (std::size_t k = 0; k + 1 < result.samples.size(); ++k) {
     append_segment(w, result.samples[k], result.samples[k + 1], edges[k], result);
@@ -659,6 +674,7 @@ void GeodesicQuery::graph_distances_from(QueryScratch::Impl& s,
   }
   while (!s.heap[0].empty()) {
     const HeapEntry top = heap_pop(s.heap[0]);
+    s.poll();
     if (top.key > max_distance) break;
     if (top.key > s.label[0][top.node] || s.is_settled(0, top.node)) continue;
     s.settled_stamp[0][top.node] = s.generation;
@@ -696,7 +712,7 @@ DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryS
     // Links as for point-to-point queries; the solve within the link radius is needed anyway
     // for the exact region.
     if (link_by_covers(sources[k], l)) {
-      solve_within_link_radius(sources[k], w.solver_s);
+      solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
     } else {
       link_by_solve(sources[k], w.solver_s, w, l);
     }
@@ -769,7 +785,7 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   for (std::size_t i = 0; i < S; ++i) {
     Links& l = w.many[i];
     if (link_by_covers(sources[i], l)) {
-      solve_within_link_radius(sources[i], w.solver_s);
+      solve_within_link_radius(sources[i], w.solver_s, w.interrupt);
     } else {
       link_by_solve(sources[i], w.solver_s, w, l);
     }

@@ -70,6 +70,11 @@ class QueryScratch {
   ~QueryScratch();
   struct Impl;  ///< defined in geodesic_query.cpp
 
+  /// Queries run with this scratch poll `interrupt` (in the exact solves and the graph
+  /// searches) and throw Interrupted when it fires; nullptr (the default) never interrupts.
+  /// Not owned: it must outlive the queries, or be reset first.
+  void set_interrupt(const QueryInterrupt* interrupt);
+
  private:
   friend class GeodesicQuery;
   explicit QueryScratch(std::unique_ptr<Impl> impl);
@@ -166,9 +171,11 @@ class GeodesicQuery {
   bool link_by_covers(const SurfacePoint& p, Links& out) const;
   void link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
                      Links& out) const;
-  void solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver) const;
+  void solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
+                                const QueryInterrupt* interrupt) const;
   std::vector<PathPoint> exact_piece(const SurfacePoint& from, const SurfacePoint& to,
-                                     double length, ExactGeodesicSolver& solver) const;
+                                     double length, ExactGeodesicSolver& solver,
+                                     const QueryInterrupt* interrupt) const;
   double search(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,
                 double upper_bound, std::uint32_t& meet, std::uint32_t& settled) const;
   double search_bidirectional(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,

@@ -1,0 +1,110 @@
+// JSON-RPC 2.0 envelope: one request line in, one reply line out.
+//
+// Requests are single objects `{"jsonrpc": "2.0", "id": ..., "method": "...", "params": {...}}`.
+// - `id` is a number, a string or null, and is echoed back: numbers byte for byte (the text as
+//   sent, e.g. 1.50 or 123456789012345678901234; only -0 comes back as 0), strings as the same
+//   JSON string. Without `id` the request is a notification: it is carried out, but never
+//   answered, not even with an error, as JSON-RPC 2.0 requires.
+// - `params` is an object (named parameters) or absent; positional (array) params are refused.
+// - Unknown members and duplicate keys anywhere are refused (InvalidRequest): a typo must not be
+//   silently ignored, and with duplicate keys two parsers could read different requests.
+// - Top-level arrays (JSON-RPC batches) are refused with InvalidRequest: pipeline single requests
+//   (replies may come out of order; match them by id) or use the `batch` method.
+// When the line cannot be read, the error reply carries the id if it was read before the failure
+// (so a pipelining client can still match it), else null.
+//
+// Replies are one line each, members in this order, ending in "\n":
+//   {"jsonrpc":"2.0","id":ID,"result":{...}}
+//   {"jsonrpc":"2.0","id":ID,"error":{"code":-32602,"message":"...","data":{"reason":"BadPoint","retryable":false}}}
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+
+#include "protocol/errors.h"
+#include "protocol/limits.h"
+
+namespace geoprox::protocol {
+
+/// The id of a request as the JSON text to echo: null, a number or a string.
+class RequestId {
+ public:
+  RequestId() = default;  ///< null
+  static RequestId number(std::int64_t value) { return RequestId(std::to_string(value)); }
+  static RequestId string(std::string_view value);
+  /// A JSON number, string or null value; nullopt for any other type.
+  static std::optional<RequestId> from_json(const nlohmann::json& value);
+
+  /// The JSON text of the id, as written into replies ("null", "17", "\"a\"").
+  const std::string& json_text() const { return text_; }
+  bool is_null() const { return text_ == "null"; }
+  nlohmann::json value() const { return nlohmann::json::parse(text_); }
+
+  bool operator==(const RequestId&) const = default;
+
+ private:
+  explicit RequestId(std::string text) : text_(std::move(text)) {}
+  friend struct RequestIdAccess;  // json_rpc.cpp: ids from the raw text of numbers
+  std::string text_ = "null";
+};
+
+/// A well-formed request envelope; `params` is not interpreted yet (protocol/messages.h).
+struct Envelope {
+  std::optional<RequestId> id;  ///< nullopt: a notification, never answered
+  std::string method;
+  nlohmann::json params = nlohmann::json::object();  ///< always an object
+
+  bool is_notification() const { return !id.has_value(); }
+};
+
+/// A line that is not a well-formed request: always answered (with `id`, null if unknown).
+struct EnvelopeError {
+  RequestId id;
+  ProtocolError error;
+};
+
+/// Parses one line (without its "\n"). ParseError for bad JSON or UTF-8, TooLarge beyond
+/// `max_nesting_depth`, InvalidRequest for a JSON value that is not a request.
+std::variant<Envelope, EnvelopeError> parse_envelope(
+    std::string_view line, std::size_t max_nesting_depth = kDefaultMaxNestingDepth);
+
+/// `{"code": ..., "message": ..., "data": {"reason": ..., "retryable": ...[, "retry_after_ms"]}}`.
+nlohmann::json error_to_json(const ProtocolError& error);
+
+/// A complete reply line, "\n" included. Invalid UTF-8 in strings (never produced by the parser,
+/// but possible in server-made messages) is replaced by U+FFFD rather than failing.
+std::string serialize_result(const RequestId& id, const nlohmann::json& result);
+std::string serialize_error(const RequestId& id, const ProtocolError& error);
+
+/// Compact JSON text of `value` on one line, tolerant of invalid UTF-8 (see above).
+std::string dump_one_line(const nlohmann::json& value);
+
+// ---- Client side: what the C++ client and the tests use. ----
+
+/// A request line, "\n" included; no id makes a notification. `params` must be an object.
+std::string serialize_request(const std::optional<RequestId>& id, std::string_view method,
+                              const nlohmann::json& params = nlohmann::json::object());
+
+struct ReplyError {
+  int code = 0;
+  std::string message;
+  std::string reason;  ///< data.reason ("" if the server sent none)
+  bool retryable = false;
+  std::optional<std::int64_t> retry_after_ms;
+};
+
+struct Reply {
+  RequestId id;
+  std::optional<nlohmann::json> result;  ///< exactly one of result and error is set
+  std::optional<ReplyError> error;
+};
+
+/// Parses a reply line; throws ProtocolError (ParseError, InvalidRequest) if it is not one.
+Reply parse_reply(std::string_view line, std::size_t max_nesting_depth = kDefaultMaxNestingDepth);
+
+}  // namespace geoprox::protocol
