@@ -142,7 +142,9 @@ class GeodesicQuery {
                           QueryScratch& scratch) const;
   /// Distance and the path as a polyline on the surface.
   PathResult path(const SurfacePoint& s, const SurfacePoint& t, QueryScratch& scratch) const;
-  /// Distances from the nearest of `sources` to every vertex (paper §3.2).
+  /// Distances from the nearest of `sources` to every vertex (paper §3.2). Throws InvalidInput
+  /// ("NoSources", "BadRadius", point reasons) and "NoCoverTable" for a graph without the
+  /// per-vertex table (imported from the paper's text format).
   DistanceField field(std::span<const SurfacePoint> sources, QueryScratch& scratch,
                       const DistanceFieldOptions& options = {}) const;
   /// Row-major |sources| x |targets| distances (kInfinity for unreachable pairs); equal to

@@ -120,6 +120,25 @@ std::pair<std::uint32_t, std::uint32_t> default_graph_size(std::size_t faces) {
           static_cast<std::uint32_t>(kTable1[rows - 1].neighbors)};
 }
 
+GraphSizeForError graph_size_for_error(std::size_t faces, double target_mean_error) {
+  if (!(target_mean_error > 0 && target_mean_error < 1)) {
+    throw InvalidInput("BadTargetError", "target error must be a fraction in (0, 1), e.g. 0.005 "
+                                         "for 0.5%, not " + std::to_string(target_mean_error));
+  }
+  // Fit of docs/accuracy.csv (bench/accuracy_plot.py).
+  constexpr double kMeanScale = 0.4169, kMeanExponent = 1.577;
+  constexpr double kP99Scale = 0.5693, kP99Exponent = 1.288;
+  constexpr std::uint32_t kMinNeighbors = 4, kMaxNeighbors = 64;
+  const double exact_m = std::pow(kMeanScale / target_mean_error, 1.0 / kMeanExponent);
+  GraphSizeForError size;
+  size.num_samples = default_graph_size(faces).first;
+  size.neighbors = static_cast<std::uint32_t>(
+      std::clamp(std::ceil(exact_m - 1e-9), double{kMinNeighbors}, double{kMaxNeighbors}));
+  size.predicted_mean = kMeanScale * std::pow(size.neighbors, -kMeanExponent);
+  size.predicted_p99 = kP99Scale * std::pow(size.neighbors, -kP99Exponent);
+  return size;
+}
+
 double ProximityGraphView::error_bound() const {
   const double denom = longest_edge - 2 * covering_radius;
   return denom > 0 ? 2 * covering_radius / denom : std::numeric_limits<double>::infinity();

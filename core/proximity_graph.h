@@ -53,6 +53,22 @@ struct ProximityGraphOptions {
 /// at its ends: (n_P, m_P) for a mesh of `faces` faces.
 std::pair<std::uint32_t, std::uint32_t> default_graph_size(std::size_t faces);
 
+/// Graph size for an accuracy instead of counts (the paper's §4.4 relationship, measured for
+/// this implementation: docs/accuracy.md). The mean relative error of graph distances depends on
+/// m_P (with m_st = 2 m_P) and hardly on n_P once n_P follows Table 1; over 45 runs on three
+/// meshes (9k-51k faces, n_P from 0.5x to 2x Table 1, m_P 6-24) a least-squares fit gives
+///   mean = 0.4169 * m_P^-1.577,   p99 = 0.5693 * m_P^-1.288,
+/// and the worst pair stayed within 12x the mean.
+struct GraphSizeForError {
+  std::uint32_t num_samples = 0;  ///< n_P: Table 1 for the face count
+  std::uint32_t neighbors = 0;    ///< m_P: smallest whose predicted mean error <= the target
+  double predicted_mean = 0;      ///< relative error, e.g. 0.005 for 0.5%
+  double predicted_p99 = 0;
+};
+/// Throws InvalidInput ("BadTargetError") unless 0 < target_mean_error < 1. m_P is clamped to
+/// [4, 64]; the prediction then says what that gives.
+GraphSizeForError graph_size_for_error(std::size_t faces, double target_mean_error);
+
 /// A direction stored by the graph: unit vector (x, y) in the frame of face `face`, a face of
 /// the sample it leaves. (0, 0) means unknown (a sample on the long side of a zero-area face):
 /// a query then falls back to an exact solve.

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -27,6 +28,7 @@ struct BuildArgs {
   std::uint32_t samples = 0;
   std::uint32_t neighbors = 0;
   std::uint32_t link_samples = 0;
+  double target_error = 0;  ///< 0: not given
   int threads = 0;
   std::string sampling = "auto";
   std::string export_text;
@@ -115,6 +117,12 @@ void run_build(const BuildArgs& args) {
   const auto start = std::chrono::steady_clock::now();
   const TriangleMesh mesh = load_mesh(args.mesh);
   const IntrinsicGeometry geometry(mesh);
+  std::optional<GraphSizeForError> for_error;
+  if (args.target_error != 0) {
+    for_error = graph_size_for_error(mesh.num_faces(), args.target_error);
+    if (options.num_samples == 0) options.num_samples = for_error->num_samples;
+    options.neighbors = for_error->neighbors;
+  }
   const double load_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -157,6 +165,10 @@ void run_build(const BuildArgs& args) {
   add("r covering      %.6g\n", view.covering_radius);
   add("link radius     %.6g\n", view.link_radius);
   add("bound 2r/(R-2r) %.4g\n", view.error_bound());
+  if (for_error) {
+    add("predicted error mean %.3g%%, p99 %.3g%% (target %.3g%%; docs/accuracy.md)\n",
+        100 * for_error->predicted_mean, 100 * for_error->predicted_p99, 100 * args.target_error);
+  }
   add("time load       %.3f s\n", load_seconds);
   add("time sampling   %.3f s\n", graph.stats.sampling_seconds);
   add("time local      %.3f s\n", graph.stats.local_solve_seconds);
@@ -229,6 +241,11 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
                     "n_P samples (default: the paper's Table 1 for the face count)");
   build->add_option("--neighbors", build_args->neighbors,
                     "m_P nearest samples linked to each (default: Table 1)");
+  build->add_option("--target-error", build_args->target_error,
+                    "mean relative error wanted (e.g. 0.005 for 0.5%): picks m_P, and n_P unless "
+                    "--samples is given, from the measured relationship in docs/accuracy.md; "
+                    "prints the predicted error")
+      ->excludes("--neighbors");
   build->add_option("--link-samples", build_args->link_samples,
                     "m_st: samples a query point is linked to on average; sets the link radius "
                     "(default: 2 m_P)");

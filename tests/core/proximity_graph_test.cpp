@@ -699,6 +699,29 @@ TEST(ProximityGraph, FastMarchingSamplingSpreadsEvenly) {
 // ---------------------------------------------------------------------------------------------
 // Graph
 
+TEST(ProximityGraph, GraphSizeForError) {
+  // The fit of docs/accuracy.md: mean = 0.4169 m^-1.577, the smallest m_P meeting the target.
+  const GraphSizeForError half = graph_size_for_error(100'000, 0.005);
+  EXPECT_EQ(half.neighbors, 17u);
+  EXPECT_EQ(half.num_samples, 5000u);
+  EXPECT_LE(half.predicted_mean, 0.005);
+  EXPECT_GT(0.4169 * std::pow(16.0, -1.577), 0.005);  // 16 would not do
+  EXPECT_NEAR(half.predicted_mean, 0.4169 * std::pow(17.0, -1.577), 1e-12);
+  EXPECT_NEAR(half.predicted_p99, 0.5693 * std::pow(17.0, -1.288), 1e-12);
+  EXPECT_EQ(graph_size_for_error(100'000, 0.009).neighbors, 12u);
+  EXPECT_EQ(graph_size_for_error(10'000, 0.5).neighbors, 4u);     // clamped low
+  EXPECT_EQ(graph_size_for_error(10'000, 1e-6).neighbors, 64u);   // clamped high
+  EXPECT_EQ(graph_size_for_error(10'000, 0.005).num_samples, 1300u);
+  for (double bad : {0.0, -0.1, 1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    try {
+      graph_size_for_error(10'000, bad);
+      ADD_FAILURE() << "accepted target error " << bad;
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.reason(), "BadTargetError");
+    }
+  }
+}
+
 TEST(ProximityGraph, StructureOnSpot) {
   check_structure(spot(), spot_fmm_graph(), "spot fmm 150/10");
   check_structure(spot(), spot_exact_graph(), "spot exact 100/10");
