@@ -1,0 +1,194 @@
+// geoproxd: the geoprox query daemon. docs/daemon.md is the manual.
+//
+//   geoproxd --config FILE [--bind ADDR] [--port N] [--admin-port N] [--port-file FILE]
+//   geoproxd --config FILE --check
+#include <unistd.h>
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include "core/graph_file.h"
+#include "core/intrinsic_geometry.h"
+#include "core/mesh_io.h"
+#include "server/config.h"
+#include "server/logging.h"
+#include "server/registry.h"
+#include "server/server.h"
+
+#ifndef GEOPROX_VERSION
+#define GEOPROX_VERSION "0.0.0"
+#endif
+
+namespace {
+
+using namespace geoprox;
+using namespace geoprox::server;
+
+constexpr const char* kUsage =
+    "usage: geoproxd --config FILE [--bind ADDR] [--port N] [--admin-port N]\n"
+    "                [--port-file FILE] [--check]\n"
+    "\n"
+    "  --config FILE     the JSON configuration (configs/README.md documents every key)\n"
+    "  --bind ADDR       address of the query port (overrides \"bind\")\n"
+    "  --port N          query port, 0 for an ephemeral one (overrides \"port\")\n"
+    "  --admin-port N    admin HTTP port (/metrics, /healthz, /readyz), 0 = off\n"
+    "  --port-file FILE  once listening, write {\"port\": N, \"admin_port\": M} to FILE\n"
+    "  --check           validate the config, the meshes and the graph files, then exit\n"
+    "                    (0: all usable; 1: something is wrong, printed on stderr)\n"
+    "  --version, --help\n"
+    "\n"
+    "Environment: GEOPROX_LOG_LEVEL (trace..off), GEOPROX_ADMIN_TOKEN (enables admin methods).\n"
+    "Signals: SIGTERM/SIGINT drain and exit 0 (a second one stops at once); SIGHUP reloads the\n"
+    "graph files.\n";
+
+struct Args {
+  std::string config;
+  std::optional<std::string> bind;
+  std::optional<int> port;
+  std::optional<int> admin_port;
+  std::string port_file;
+  bool check = false;
+};
+
+int parse_port(const std::string& flag, const std::string& text) {
+  char* end = nullptr;
+  const long value = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || value < 0 || value > 65535) {
+    throw ConfigError(flag + ": \"" + text + "\" is not a port number (0 to 65535)");
+  }
+  return static_cast<int>(value);
+}
+
+/// Validates every mesh and graph file without starting anything. Returns the exit code.
+int run_check(const Config& config) {
+  int failures = 0;
+  std::printf("config %s: OK (%zu meshes; data_dir %s; graph_dir %s)\n",
+              config.config_file.string().c_str(), config.meshes.size(),
+              config.data_dir.string().c_str(), config.graph_dir.string().c_str());
+  for (const MeshConfig& m : config.meshes) {
+    try {
+      const TriangleMesh mesh = load_mesh(m.mesh_path.string());
+      const IntrinsicGeometry geometry(mesh);
+      std::printf("mesh %s: %s OK (%zu vertices, %zu faces)\n", m.id.c_str(),
+                  m.mesh_path.string().c_str(), mesh.num_vertices(), mesh.num_faces());
+      std::error_code ec;
+      if (!std::filesystem::exists(m.graph_path, ec)) {
+        std::printf("graph %s: %s missing (it will be built at start)\n", m.id.c_str(),
+                    m.graph_path.string().c_str());
+        continue;
+      }
+      try {
+        const MappedGraphFile file = MappedGraphFile::open(m.graph_path.string());
+        file.verify_mesh(mesh, geometry);
+        std::printf("graph %s: %s OK (version %s, %llu samples)\n", m.id.c_str(),
+                    m.graph_path.string().c_str(), mesh_version_of(file).c_str(),
+                    static_cast<unsigned long long>(file.counts().samples));
+      } catch (const std::exception& e) {
+        ++failures;
+        std::fprintf(stderr, "geoproxd: check: graph %s: %s: %s (at start it would be rebuilt)\n",
+                     m.id.c_str(), m.graph_path.string().c_str(), describe_exception(e).c_str());
+      }
+    } catch (const std::exception& e) {
+      ++failures;
+      std::fprintf(stderr, "geoproxd: check: mesh %s: %s: %s\n", m.id.c_str(),
+                   m.mesh_path.string().c_str(), describe_exception(e).c_str());
+    }
+  }
+  if (failures) {
+    std::fprintf(stderr, "geoproxd: check failed: %d problem%s\n", failures,
+                 failures == 1 ? "" : "s");
+    return 1;
+  }
+  std::printf("check passed\n");
+  return 0;
+}
+
+int run(int argc, char** argv) {
+  Args args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw ConfigError(a + ": needs a value");
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    } else if (a == "--version") {
+      std::printf("geoproxd %s\n", GEOPROX_VERSION);
+      return 0;
+    } else if (a == "--config") {
+      args.config = value();
+    } else if (a == "--bind") {
+      args.bind = value();
+    } else if (a == "--port") {
+      args.port = parse_port(a, value());
+    } else if (a == "--admin-port") {
+      args.admin_port = parse_port(a, value());
+    } else if (a == "--port-file") {
+      args.port_file = value();
+    } else if (a == "--check") {
+      args.check = true;
+    } else {
+      std::fprintf(stderr, "geoproxd: unknown argument \"%s\"\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+  }
+  if (args.config.empty()) {
+    std::fprintf(stderr, "geoproxd: --config FILE is required\n%s", kUsage);
+    return 2;
+  }
+  Config config = load_config(args.config);
+  if (args.bind) config.bind = *args.bind;
+  if (args.port) config.port = static_cast<std::uint16_t>(*args.port);
+  if (args.admin_port) config.admin_port = static_cast<std::uint16_t>(*args.admin_port);
+  apply_environment(config);
+  if (args.check) return run_check(config);
+
+  configure_logging(config.log_level, config.log_json);
+  std::signal(SIGPIPE, SIG_IGN);
+  spdlog::info("geoproxd {} starting (config {}, pid {})", GEOPROX_VERSION,
+               config.config_file.string(), static_cast<long>(getpid()));
+  ServerOptions options;
+  options.handle_signals = true;
+  options.port_file = args.port_file;
+  auto server = std::make_unique<Server>(config, options);
+  try {
+    server->start();
+  } catch (const std::exception& e) {
+    spdlog::critical("cannot start: {}", e.what());
+    return 1;
+  }
+  server->wait();
+  if (!server->registry().join(std::chrono::seconds(2))) {
+    spdlog::warn("a graph build is still running; exiting without waiting for it");
+    spdlog::shutdown();
+    std::fflush(nullptr);
+    _exit(0);
+  }
+  server.reset();
+  spdlog::info("geoproxd stopped");
+  spdlog::shutdown();
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const ConfigError& e) {
+    std::fprintf(stderr, "geoproxd: config error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "geoproxd: %s\n", e.what());
+    return 1;
+  }
+}

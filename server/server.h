@@ -1,0 +1,66 @@
+// geoproxd's transport: Boost.Asio acceptor and connections, the compute pool, the admin HTTP
+// endpoint (/metrics, /healthz, /readyz), signals and graceful shutdown. docs/daemon.md
+// describes the behaviour; server/service.h answers the requests.
+//
+// Threads: `io_threads` threads run the io_context (accept, read, frame, decode, write, and the
+// cheap methods: mesh.list, mesh.info, server.*); `compute_threads` threads run every query,
+// batch and admin call; one builder thread (server/registry.h) loads and builds graphs. Each
+// connection's handlers run on its own strand.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+
+#include "server/config.h"
+
+namespace geoprox::server {
+
+class Registry;
+class Service;
+class Metrics;
+
+struct ServerOptions {
+  /// Install SIGTERM/SIGINT (graceful shutdown; a second one stops at once) and SIGHUP
+  /// (reload) handlers. Only the daemon's main() wants this; in-process tests do not.
+  bool handle_signals = false;
+  /// If set, {"port": N, "admin_port": M} is written there (atomically) once listening.
+  std::filesystem::path port_file;
+};
+
+class Server {
+ public:
+  explicit Server(Config config, ServerOptions options = {});
+  /// Shuts down (gracefully, within shutdown_timeout_ms) if still running, then waits.
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  /// Binds the ports (throws std::runtime_error naming the address if it cannot), queues the
+  /// configured meshes' loads and starts the threads. Returns at once.
+  void start();
+  /// The bound ports (useful with port 0). admin_port() is 0 when the admin endpoint is off.
+  std::uint16_t port() const;
+  std::uint16_t admin_port() const;
+
+  /// Graceful shutdown: stop accepting, report not ready, answer new requests ShuttingDown,
+  /// finish those in flight (at most shutdown_timeout_ms, then cancel them), close. Thread-safe,
+  /// returns at once; wait() returns once it is done.
+  void shutdown();
+  /// Reloads every graph file in the background (what SIGHUP does).
+  void reload_async();
+  /// Blocks until the server has stopped (after shutdown()).
+  void wait();
+
+  const Config& config() const;
+  Registry& registry();
+  Service& service();
+  Metrics& metrics();
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace geoprox::server

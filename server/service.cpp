@@ -1,0 +1,587 @@
+#include "server/service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <cstdio>
+#include <new>
+#include <nlohmann/json.hpp>
+#include <variant>
+
+#include "core/geodesic_query.h"
+#include "core/surface_point.h"
+
+#ifndef GEOPROX_VERSION
+#define GEOPROX_VERSION "0.0.0"
+#endif
+
+namespace geoprox::server {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using protocol::ErrorReason;
+using protocol::ProtocolError;
+using protocol::WirePoint;
+
+namespace {
+
+template <class... Ts>
+struct Overloaded : Ts... {
+  using Ts::operator()...;
+};
+template <class... Ts>
+Overloaded(Ts...) -> Overloaded<Ts...>;
+
+std::string quoted(const std::string& s) { return "\"" + s + "\""; }
+
+/// Point reasons keep their name; positions that cannot be snapped are BadPoint; any other
+/// InvalidInput reason is InvalidParams.
+ErrorReason point_reason(const std::string& core_reason) {
+  static const ErrorReason kept[] = {
+      ErrorReason::VertexOutOfRange, ErrorReason::EdgeOutOfRange,   ErrorReason::FaceOutOfRange,
+      ErrorReason::SampleOutOfRange, ErrorReason::IsolatedVertex,   ErrorReason::BadBarycentric,
+      ErrorReason::BadEdgeParameter, ErrorReason::BadPoint,
+  };
+  for (ErrorReason r : kept) {
+    if (protocol::reason_name(r) == core_reason) return r;
+  }
+  if (core_reason == "BadPosition" || core_reason == "TooFarFromSurface" ||
+      core_reason == "BadPointSyntax") {
+    return ErrorReason::BadPoint;
+  }
+  return ErrorReason::InvalidParams;
+}
+
+/// The mesh in service for `id`, or the error saying why there is none.
+std::shared_ptr<const LoadedMesh> acquire(const Registry& registry, const Config& config,
+                                          const std::string& id, RequestContext& context) {
+  auto entry = registry.find(id);
+  if (!entry) {
+    throw ProtocolError(ErrorReason::UnknownMesh,
+                        "params.mesh: no mesh " + quoted(id) + " (mesh.list lists them)");
+  }
+  context.mesh = id;
+  if (auto loaded = entry->loaded()) return loaded;
+  const MeshStatus status = entry->status();
+  if (status.loaded) return status.loaded;
+  if (status.state == protocol::MeshState::Building) {
+    char progress[32];
+    std::snprintf(progress, sizeof progress, "%.0f%%", 100 * status.progress);
+    throw ProtocolError(ErrorReason::MeshNotReady,
+                        "mesh " + quoted(id) + " is building (" + progress +
+                            (status.phase ? ", " + *status.phase : std::string()) + ")")
+        .set_retry_after_ms(config.not_ready_retry_after_ms);
+  }
+  throw ProtocolError(ErrorReason::MeshBuildFailed,
+                      "mesh " + quoted(id) + " has no graph: " +
+                          status.error.value_or("unknown error") + " (mesh.list has the error)");
+}
+
+/// A wire point as a point of the mesh, checked against it; errors name `path`.
+SurfacePoint resolve(const WirePoint& w, const LoadedMesh& m, const std::string& path) {
+  try {
+    SurfacePoint p;
+    switch (w.kind) {
+      case WirePoint::Kind::Vertex:
+        p = SurfacePoint::vertex(w.id);
+        break;
+      case WirePoint::Kind::Edge:
+        p = SurfacePoint::edge(w.id, w.t);
+        break;
+      case WirePoint::Kind::Face:
+        p = SurfacePoint::face(w.id, w.bary[0], w.bary[1], w.bary[2]);
+        break;
+      case WirePoint::Kind::Sample:
+        p = m.query().sample_point(w.id);
+        break;
+      case WirePoint::Kind::Position:
+        p = m.query().snap(Vec3{w.position[0], w.position[1], w.position[2]}).point;
+        break;
+    }
+    p.validate(m.mesh());
+    if (p.kind == SurfacePoint::Kind::Vertex && m.mesh().is_isolated_vertex(p.id)) {
+      throw InvalidInput("IsolatedVertex", "vertex " + std::to_string(p.id) +
+                                               " belongs to no face, so no geodesic reaches it");
+    }
+    return p;
+  } catch (const InvalidInput& e) {
+    // Translation only (adds the parameter's name); the request boundary catches the rest.
+    throw ProtocolError(point_reason(e.reason()), path + ": " + e.what());
+  }
+}
+
+std::string indexed(const char* name, std::size_t i, std::size_t count, const char* single) {
+  if (count == 1 && single) return std::string("params.") + single;
+  return std::string("params.") + name + "[" + std::to_string(i) + "]";
+}
+
+/// Leases a scratch and arms the request's interrupt on it.
+LoadedMesh::Lease lease_for(const LoadedMesh& mesh, RequestContext& context) {
+  context.interrupt.check();  // the deadline may have passed in the queue
+  LoadedMesh::Lease lease = mesh.lease();
+  lease.scratch().set_interrupt(&context.interrupt);
+  return lease;
+}
+
+void check_output(std::size_t min_bytes, const protocol::Limits& limits, const char* what) {
+  if (min_bytes > limits.max_output_bytes) {
+    throw ProtocolError(ErrorReason::TooLarge,
+                        std::string(what) + " would take at least " + std::to_string(min_bytes) +
+                            " bytes, more than max_output_bytes (" +
+                            std::to_string(limits.max_output_bytes) + ")");
+  }
+}
+
+protocol::DistanceResult run_distance(const protocol::DistanceParams& p, const LoadedMesh& m,
+                                      RequestContext& context) {
+  const SurfacePoint s = resolve(p.source, m, "params.source");
+  const SurfacePoint t = resolve(p.target, m, "params.target");
+  LoadedMesh::Lease lease = lease_for(m, context);
+  protocol::DistanceResult r;
+  r.mesh = context.mesh;
+  r.mesh_version = m.version();
+  r.source = p.source;
+  r.target = p.target;
+  if (p.exact) {
+    ExactGeodesicSolver& solver = lease.exact_solver();
+    ExactGeodesicOptions options;
+    options.stop_after_targets = 1;
+    options.interrupt = &context.interrupt;
+    const GeodesicSource source{s, 0};
+    solver.solve(std::span<const GeodesicSource>(&source, 1), std::span<const SurfacePoint>(&t, 1),
+                 options);
+    if (solver.settled_targets().empty() || !std::isfinite(solver.settled_target_distances()[0])) {
+      throw ProtocolError(ErrorReason::Unreachable,
+                          "params.target " + protocol::to_text(p.target) +
+                              " is not reachable from params.source " +
+                              protocol::to_text(p.source) + " (another component)");
+    }
+    r.distance = solver.settled_target_distances()[0];
+    r.exact = true;
+  } else {
+    const DistanceResult d = m.query().distance(s, t, lease.scratch());
+    r.distance = d.distance;
+    r.exact = d.exact;
+  }
+  return r;
+}
+
+protocol::PathResult run_path(const protocol::PathParams& p, const LoadedMesh& m,
+                              RequestContext& context) {
+  const SurfacePoint s = resolve(p.source, m, "params.source");
+  const SurfacePoint t = resolve(p.target, m, "params.target");
+  LoadedMesh::Lease lease = lease_for(m, context);
+  PathResult path = m.query().path(s, t, lease.scratch());
+  protocol::PathResult r;
+  r.mesh = context.mesh;
+  r.mesh_version = m.version();
+  r.source = p.source;
+  r.target = p.target;
+  r.distance = path.distance;
+  r.exact = path.exact;
+  r.points.reserve(path.points.size());
+  for (const PathPoint& point : path.points) {
+    const auto [face, bary] = point.point.in_face(m.mesh());
+    r.points.push_back({face, bary, {point.position.x, point.position.y, point.position.z}});
+  }
+  return r;
+}
+
+protocol::FieldResult run_field(const protocol::FieldParams& p, const LoadedMesh& m,
+                                RequestContext& context, const protocol::Limits& limits) {
+  const std::size_t n = m.mesh().num_vertices();
+  const bool several = p.sources.size() > 1;
+  const std::size_t per_vertex = p.encoding == protocol::FieldEncoding::Json ? 2 : 5;
+  check_output(n * per_vertex * (several ? 2 : 1), limits, "the field");
+  std::vector<SurfacePoint> sources;
+  sources.reserve(p.sources.size());
+  for (std::size_t i = 0; i < p.sources.size(); ++i) {
+    sources.push_back(resolve(p.sources[i], m, indexed("sources", i, p.sources.size(), "source")));
+  }
+  LoadedMesh::Lease lease = lease_for(m, context);
+  DistanceFieldOptions options;
+  options.threads = 1;  // the compute pool is the parallelism
+  if (p.cutoff) options.max_distance = *p.cutoff;
+  DistanceField field = m.query().field(sources, lease.scratch(), options);
+  protocol::FieldResult r;
+  r.mesh = context.mesh;
+  r.mesh_version = m.version();
+  r.encoding = p.encoding;
+  r.cutoff = p.cutoff;
+  r.distances = std::move(field.distances);
+  if (several) {
+    r.nearest_source.resize(field.nearest_source.size());
+    for (std::size_t v = 0; v < field.nearest_source.size(); ++v) {
+      const std::int32_t k = field.nearest_source[v];
+      r.nearest_source[v] = k < 0 || !std::isfinite(r.distances[v])
+                                ? protocol::FieldResult::kNotReached
+                                : static_cast<std::uint32_t>(k);
+    }
+  }
+  return r;
+}
+
+protocol::MatrixResult run_matrix(const protocol::MatrixParams& p, const LoadedMesh& m,
+                                  RequestContext& context, const protocol::Limits& limits) {
+  check_output(p.sources.size() * p.targets.size() * 2, limits, "the matrix");
+  std::vector<SurfacePoint> sources, targets;
+  sources.reserve(p.sources.size());
+  targets.reserve(p.targets.size());
+  for (std::size_t i = 0; i < p.sources.size(); ++i) {
+    sources.push_back(resolve(p.sources[i], m, indexed("sources", i, 0, nullptr)));
+  }
+  for (std::size_t i = 0; i < p.targets.size(); ++i) {
+    targets.push_back(resolve(p.targets[i], m, indexed("targets", i, 0, nullptr)));
+  }
+  LoadedMesh::Lease lease = lease_for(m, context);
+  protocol::MatrixResult r;
+  r.mesh = context.mesh;
+  r.mesh_version = m.version();
+  r.source_count = sources.size();
+  r.target_count = targets.size();
+  r.distances = m.query().matrix(sources, targets, lease.scratch());
+  return r;
+}
+
+protocol::SamplingMethod to_wire(SamplingMethod s) {
+  switch (s) {
+    case SamplingMethod::FastMarching:
+      return protocol::SamplingMethod::Fmm;
+    case SamplingMethod::Exact:
+      return protocol::SamplingMethod::Exact;
+    case SamplingMethod::Automatic:
+      break;
+  }
+  return protocol::SamplingMethod::Auto;
+}
+
+std::string display_path(const fs::path& path, const fs::path& data_dir) {
+  const fs::path rel = path.lexically_relative(data_dir);
+  if (!rel.empty() && *rel.begin() != "..") return rel.generic_string();
+  return path.generic_string();
+}
+
+}  // namespace
+
+bool constant_time_equal(std::string_view a, std::string_view b) {
+  // Runs over b's length whatever a is; differences in length or content both count.
+  volatile unsigned char diff = a.size() == b.size() ? 0 : 1;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const unsigned char x = a.empty() ? 0 : static_cast<unsigned char>(a[i % a.size()]);
+    diff = static_cast<unsigned char>(diff | (x ^ static_cast<unsigned char>(b[i])));
+  }
+  return diff == 0 && !b.empty();
+}
+
+ProtocolError current_error(bool draining) {
+  try {
+    throw;
+  } catch (const ProtocolError& e) {
+    return e;
+  } catch (const Interrupted& e) {
+    if (e.reason() == "Cancelled") {
+      if (draining) {
+        return ProtocolError(ErrorReason::ShuttingDown,
+                             "the server is shutting down; the request was cancelled");
+      }
+      return ProtocolError(ErrorReason::DeadlineExceeded, "the request was cancelled");
+    }
+    return ProtocolError(ErrorReason::DeadlineExceeded,
+                         "the request ran past its deadline (timeout_ms; server.info gives the "
+                         "default and the maximum)");
+  } catch (const geoprox::Unreachable& e) {
+    return ProtocolError(ErrorReason::Unreachable, e.what());
+  } catch (const InvalidInput& e) {
+    return ProtocolError(point_reason(e.reason()), e.what());
+  } catch (const geoprox::Error& e) {
+    return ProtocolError(ErrorReason::Internal, describe_exception(e));
+  } catch (const std::bad_alloc&) {
+    return ProtocolError(ErrorReason::Internal, "out of memory while answering");
+  } catch (const std::exception& e) {
+    return ProtocolError(ErrorReason::Internal, std::string("unexpected failure: ") + e.what());
+  } catch (...) {
+    return ProtocolError(ErrorReason::Internal, "unexpected failure (non-standard exception)");
+  }
+}
+
+Service::Service(const Config& config, Registry& registry, Metrics& metrics, ServerState& state)
+    : config_(config), registry_(registry), metrics_(metrics), state_(state) {}
+
+bool Service::answered_inline(protocol::Method method) {
+  switch (method) {
+    case protocol::Method::MeshList:
+    case protocol::Method::MeshInfo:
+    case protocol::Method::ServerInfo:
+    case protocol::Method::ServerHealth:
+    case protocol::Method::ServerMetrics:
+      return true;
+    default:
+      return false;
+  }
+}
+
+Answer Service::refuse(const protocol::Call& call, const ProtocolError& error) {
+  Answer a;
+  a.error = error.reason();
+  if (call.id) a.line = protocol::serialize_error(*call.id, error);
+  return a;
+}
+
+Answer Service::answer(const protocol::Call& call, RequestContext& context) const noexcept {
+  Answer a;
+  try {
+    const protocol::RequestId id = call.id.value_or(protocol::RequestId());
+    if (const auto* field = std::get_if<protocol::FieldParams>(&call.params)) {
+      auto mesh = acquire(registry_, config_, field->mesh, context);
+      a.line = protocol::serialize_field_result(id, run_field(*field, *mesh, context, config_.limits));
+    } else {
+      a.line = protocol::serialize_result(id, execute(call.params, context));
+    }
+    if (a.line.size() > config_.limits.max_output_bytes) {
+      throw ProtocolError(ErrorReason::TooLarge,
+                          "the reply takes " + std::to_string(a.line.size()) +
+                              " bytes, more than max_output_bytes (" +
+                              std::to_string(config_.limits.max_output_bytes) + ")");
+    }
+    if (!call.id) a.line.clear();
+    return a;
+  } catch (...) {
+    // The request boundary: whatever failed becomes this request's error reply.
+    const ProtocolError error = current_error(state_.draining.load());
+    a.error = error.reason();
+    a.line.clear();
+    if (call.id) {
+      try {
+        a.line = protocol::serialize_error(*call.id, error);
+      } catch (...) {
+        a.line = "{\"jsonrpc\":\"2.0\",\"id\":null,\"error\":{\"code\":-32603,\"data\":{"
+                 "\"reason\":\"Internal\",\"retryable\":true},\"message\":\"out of memory\"}}\n";
+      }
+    }
+    return a;
+  }
+}
+
+json Service::execute(const protocol::Params& params, RequestContext& context) const {
+  return std::visit(
+      Overloaded{
+          [&](const protocol::DistanceParams& p) -> json {
+            auto mesh = acquire(registry_, config_, p.mesh, context);
+            return run_distance(p, *mesh, context);
+          },
+          [&](const protocol::PathParams& p) -> json {
+            auto mesh = acquire(registry_, config_, p.mesh, context);
+            return run_path(p, *mesh, context);
+          },
+          [&](const protocol::FieldParams& p) -> json {
+            auto mesh = acquire(registry_, config_, p.mesh, context);
+            return run_field(p, *mesh, context, config_.limits);
+          },
+          [&](const protocol::MatrixParams& p) -> json {
+            auto mesh = acquire(registry_, config_, p.mesh, context);
+            return run_matrix(p, *mesh, context, config_.limits);
+          },
+          [&](const protocol::BatchParams& p) -> json { return batch(p, context); },
+          [&](const protocol::MeshListParams&) -> json {
+            protocol::MeshListResult r;
+            for (const auto& entry : registry_.entries()) {
+              r.meshes.push_back(to_summary(entry->status()));
+            }
+            return r;
+          },
+          [&](const protocol::MeshInfoParams& p) -> json {
+            auto entry = registry_.find(p.mesh);
+            if (!entry) {
+              throw ProtocolError(ErrorReason::UnknownMesh,
+                                  "params.mesh: no mesh " + quoted(p.mesh) +
+                                      " (mesh.list lists them)");
+            }
+            context.mesh = p.mesh;
+            const MeshStatus s = entry->status();
+            protocol::MeshInfoResult r;
+            r.summary = to_summary(s);
+            r.edges = s.edges;
+            r.mesh_file = display_path(s.mesh_path, config_.data_dir);
+            r.graph_file = display_path(s.graph_path, config_.data_dir);
+            if (s.loaded) {
+              const GraphFileParams fp = s.loaded->file().params();
+              r.graph_edges = s.loaded->file().counts().graph_edges;
+              r.covering_radius = s.loaded->file().covering_radius();
+              r.build.samples = fp.num_samples;
+              r.build.neighbors = fp.neighbors;
+              r.build.sampling = to_wire(fp.sampling);
+            } else {
+              if (s.build.samples) r.build.samples = s.build.samples;
+              if (s.build.neighbors) r.build.neighbors = s.build.neighbors;
+              r.build.sampling = to_wire(s.build.sampling);
+            }
+            return r;
+          },
+          [&](const protocol::ServerInfoParams&) -> json {
+            protocol::ServerInfoResult r;
+            r.server_version = GEOPROX_VERSION;
+            r.limits = config_.limits;
+            r.admin_enabled = !config_.admin_token.empty();
+            return r;
+          },
+          [&](const protocol::ServerHealthParams&) -> json { return health(); },
+          [&](const protocol::ServerMetricsParams&) -> json {
+            return protocol::MetricsResult{metrics_text()};
+          },
+          [&](const protocol::AdminRegisterParams& p) -> json {
+            check_admin_token(p.token);
+            context.mesh = p.mesh;
+            return to_summary(registry_.register_mesh(p));
+          },
+          [&](const protocol::AdminRebuildParams& p) -> json {
+            check_admin_token(p.token);
+            context.mesh = p.mesh;
+            return to_summary(registry_.rebuild(p.mesh, p.build));
+          },
+          [&](const protocol::AdminUnregisterParams& p) -> json {
+            check_admin_token(p.token);
+            context.mesh = p.mesh;
+            registry_.unregister(p.mesh);
+            return protocol::AdminUnregisterResult{p.mesh};
+          },
+          [&](const protocol::AdminReloadParams& p) -> json {
+            check_admin_token(p.token);
+            if (p.mesh) context.mesh = *p.mesh;
+            protocol::AdminReloadResult r;
+            r.meshes = reload(p.mesh);
+            return r;
+          },
+      },
+      params);
+}
+
+json Service::batch(const protocol::BatchParams& params, RequestContext& context) const {
+  protocol::BatchResult result;
+  result.results.reserve(params.requests.size());
+  for (const protocol::BatchEntry& entry : params.requests) {
+    context.interrupt.check();  // the batch's own deadline fails the whole batch
+    if (entry.error) {
+      result.results.emplace_back(*entry.error);
+      continue;
+    }
+    RequestContext sub;
+    sub.interrupt = context.interrupt;
+    if (entry.timeout_ms) {
+      const auto own = std::chrono::steady_clock::now() + std::chrono::milliseconds(config_.limits.effective_timeout_ms(
+                                 entry.timeout_ms));
+      if (own < sub.interrupt.deadline) sub.interrupt.deadline = own;
+    }
+    try {
+      if (!entry.params) throw ProtocolError(ErrorReason::Internal, "batch entry without params");
+      result.results.emplace_back(execute(*entry.params, sub));
+    } catch (...) {
+      // Each entry is its own request boundary: its failure fills its slot only.
+      ProtocolError error = current_error(state_.draining.load());
+      if (error.reason() == ErrorReason::DeadlineExceeded) context.interrupt.check();
+      result.results.emplace_back(std::move(error));
+    }
+    if (context.mesh.empty()) context.mesh = sub.mesh;
+  }
+  return result;
+}
+
+std::vector<protocol::ReloadOutcome> Service::reload(const std::optional<std::string>& mesh) const {
+  std::vector<protocol::ReloadOutcome> outcomes = registry_.reload(mesh);
+  for (const auto& outcome : outcomes) {
+    if (outcome.reloaded) {
+      metrics_.reloads_ok.fetch_add(1);
+    } else if (outcome.error) {
+      metrics_.reloads_failed.fetch_add(1);
+    }
+  }
+  return outcomes;
+}
+
+void Service::check_admin_token(const std::string& token) const {
+  if (config_.admin_token.empty()) {
+    throw ProtocolError(ErrorReason::Unauthorized,
+                        "admin methods are disabled: the server has no admin token "
+                        "(admin_token in the config or GEOPROX_ADMIN_TOKEN)");
+  }
+  if (token.empty() || !constant_time_equal(token, config_.admin_token)) {
+    spdlog::warn("admin call refused: wrong or missing token");
+    throw ProtocolError(ErrorReason::Unauthorized, "params.token: wrong or missing admin token");
+  }
+}
+
+protocol::HealthResult Service::health() const {
+  protocol::HealthResult h;
+  h.meshes_total = registry_.size();
+  h.meshes_ready = registry_.ready_count();
+  h.in_flight = static_cast<std::uint64_t>(std::max<std::int64_t>(0, metrics_.in_flight.load()));
+  h.uptime_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - state_.started).count();
+  if (state_.draining.load()) {
+    h.status = protocol::HealthStatus::Draining;
+  } else if (h.meshes_ready > 0 || h.meshes_total == 0) {
+    h.status = protocol::HealthStatus::Ok;
+  } else {
+    h.status = protocol::HealthStatus::Starting;
+  }
+  return h;
+}
+
+bool Service::ready() const { return health().status == protocol::HealthStatus::Ok; }
+
+std::string Service::metrics_text() const {
+  std::string out;
+  out.reserve(8192);
+  metrics_.render(out);
+  const auto entries = registry_.entries();
+  std::size_t n_ready = 0, building = 0, failed = 0;
+  std::string per_mesh_ready, per_mesh_progress, per_mesh_scratch;
+  for (const auto& entry : entries) {
+    const MeshStatus s = entry->status();
+    switch (s.state) {
+      case protocol::MeshState::Ready:
+        ++n_ready;
+        break;
+      case protocol::MeshState::Building:
+        ++building;
+        break;
+      case protocol::MeshState::Failed:
+        ++failed;
+        break;
+    }
+    const std::string label = "{mesh=\"" + prometheus_label(s.id) + "\"}";
+    per_mesh_ready += "geoprox_mesh_ready" + label + (s.loaded ? " 1\n" : " 0\n");
+    char progress[32];
+    std::snprintf(progress, sizeof progress, " %.4f\n", s.progress);
+    per_mesh_progress += "geoprox_mesh_build_progress" + label + progress;
+    if (s.loaded) {
+      per_mesh_scratch += "geoprox_mesh_scratch_buffers" + label + " " +
+                          std::to_string(s.loaded->scratch_created()) + "\n";
+    }
+  }
+  out += "# HELP geoprox_meshes Registered meshes by state.\n# TYPE geoprox_meshes gauge\n";
+  out += "geoprox_meshes{state=\"ready\"} " + std::to_string(n_ready) + "\n";
+  out += "geoprox_meshes{state=\"building\"} " + std::to_string(building) + "\n";
+  out += "geoprox_meshes{state=\"failed\"} " + std::to_string(failed) + "\n";
+  out += "# HELP geoprox_mesh_ready 1 when the mesh has a graph in service.\n"
+         "# TYPE geoprox_mesh_ready gauge\n" +
+         per_mesh_ready;
+  out += "# HELP geoprox_mesh_build_progress Progress of the current load or build (1: done).\n"
+         "# TYPE geoprox_mesh_build_progress gauge\n" +
+         per_mesh_progress;
+  out += "# HELP geoprox_mesh_scratch_buffers Query scratch buffers allocated for the graph in "
+         "service.\n# TYPE geoprox_mesh_scratch_buffers gauge\n" +
+         per_mesh_scratch;
+  char uptime[64];
+  std::snprintf(uptime, sizeof uptime, "%.3f",
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - state_.started)
+                    .count());
+  out += "# HELP geoprox_uptime_seconds Seconds since the server started.\n"
+         "# TYPE geoprox_uptime_seconds gauge\ngeoprox_uptime_seconds " +
+         std::string(uptime) + "\n";
+  out += "# HELP geoprox_ready 1 when the server is ready (a mesh is ready, not draining).\n"
+         "# TYPE geoprox_ready gauge\ngeoprox_ready " +
+         std::string(ready() ? "1" : "0") + "\n";
+  return out;
+}
+
+}  // namespace geoprox::server

@@ -1,0 +1,80 @@
+// What geoproxd answers, independent of sockets: one decoded Call in, one reply line out.
+//
+// answer() is the request boundary: every failure below it (a protocol error, a core error, a
+// bad_alloc, a bug) is turned into an error reply by its one catch, never thrown to the caller.
+// Core errors map to protocol reasons: point reasons (FaceOutOfRange, BadBarycentric, ...) keep
+// their name as -32602 errors, positions that cannot be snapped are BadPoint, other InvalidInput
+// reasons are InvalidParams with the core message, Unreachable is Unreachable, Interrupted is
+// DeadlineExceeded (or ShuttingDown when the server cancelled it while draining), anything else
+// is Internal.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "core/errors.h"
+#include "protocol/errors.h"
+#include "protocol/request.h"
+#include "server/config.h"
+#include "server/metrics.h"
+#include "server/registry.h"
+
+namespace geoprox::server {
+
+/// Process-wide state the health and metrics answers read.
+struct ServerState {
+  std::atomic<bool> draining{false};
+  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
+};
+
+/// One request's deadline and cancel flag, and what the logs want to know about it.
+struct RequestContext {
+  QueryInterrupt interrupt;
+  std::string mesh;  ///< the mesh it ran on, once known
+};
+
+struct Answer {
+  std::string line;  ///< the reply line with "\n"; empty for a notification
+  std::optional<protocol::ErrorReason> error;
+};
+
+class Service {
+ public:
+  Service(const Config& config, Registry& registry, Metrics& metrics, ServerState& state);
+
+  /// Methods cheap enough to answer on the I/O thread (no geometry work, no file access).
+  static bool answered_inline(protocol::Method method);
+
+  /// The reply to `call` (never throws).
+  Answer answer(const protocol::Call& call, RequestContext& context) const noexcept;
+  /// The reply to a call that could not be run (Overloaded, ShuttingDown...).
+  static Answer refuse(const protocol::Call& call, const protocol::ProtocolError& error);
+
+  /// Prometheus text: request metrics plus mesh states and build progress.
+  std::string metrics_text() const;
+  protocol::HealthResult health() const;
+  bool ready() const;
+  /// Reopens graph files (admin.reload, SIGHUP), counting the outcomes in the metrics.
+  std::vector<protocol::ReloadOutcome> reload(const std::optional<std::string>& mesh) const;
+
+ private:
+  nlohmann::json execute(const protocol::Params& params, RequestContext& context) const;
+  nlohmann::json batch(const protocol::BatchParams& params, RequestContext& context) const;
+  void check_admin_token(const std::string& token) const;
+
+  const Config& config_;
+  Registry& registry_;
+  Metrics& metrics_;
+  ServerState& state_;
+};
+
+/// The protocol error for the exception being handled (call inside a catch block only).
+protocol::ProtocolError current_error(bool draining);
+
+/// Equal-length-independent, data-independent comparison of secrets.
+bool constant_time_equal(std::string_view a, std::string_view b);
+
+}  // namespace geoprox::server

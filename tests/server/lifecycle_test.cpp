@@ -1,0 +1,453 @@
+// The daemon's life: geoproxd as a subprocess (SIGTERM drain, SIGHUP reload with a good and a
+// corrupted graph, --check), background builds (a mesh that fails does not take the others
+// down), admin methods (token, path confinement, register / rebuild / unregister / reload) and
+// the config file.
+#include <signal.h>
+#include <sys/wait.h>
+
+#include "server/service.h"
+#include "tests/server/server_test_support.h"
+
+namespace geoprox::server::testing {
+namespace {
+
+/// geoproxd started with `args`, stderr to a file; killed if still running at the end.
+class Daemon {
+ public:
+  explicit Daemon(std::vector<std::string> args, const fs::path& log) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      FILE* f = std::freopen(log.c_str(), "w", stderr);
+      (void)f;
+      std::vector<char*> argv;
+      std::string binary = GEOPROXD_BINARY;
+      argv.push_back(binary.data());
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(binary.c_str(), argv.data());
+      _exit(127);
+    }
+  }
+  ~Daemon() {
+    if (pid_ > 0 && !exited_) {
+      ::kill(pid_, SIGKILL);
+      int status = 0;
+      waitpid(pid_, &status, 0);
+    }
+  }
+  void signal(int sig) { ::kill(pid_, sig); }
+  /// Exit code, or -1 on timeout / killed by a signal.
+  int wait(std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      const pid_t r = waitpid(pid_, &status, WNOHANG);
+      if (r == pid_) {
+        exited_ = true;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+      }
+      std::this_thread::sleep_for(5ms);
+    }
+    return -1;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  bool exited_ = false;
+};
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_file(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+}
+
+/// Waits for the port file and returns the query port.
+std::uint16_t wait_for_port(const fs::path& port_file, const fs::path& log) {
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (fs::exists(port_file)) {
+      return json::parse(read_file(port_file))["port"].get<std::uint16_t>();
+    }
+    std::this_thread::sleep_for(10ms);
+  }
+  ADD_FAILURE() << "geoproxd did not start:\n" << read_file(log);
+  return 0;
+}
+
+/// A config file for the daemon serving spot from `data`.
+fs::path write_config(const TestData& data, const json& extra = json::object()) {
+  json config = {{"bind", "127.0.0.1"},
+                 {"port", 0},
+                 {"admin_port", 0},
+                 {"compute_threads", 2},
+                 {"data_dir", "data"},
+                 {"graph_dir", "graphs"},
+                 {"shutdown_timeout_ms", 5000},
+                 {"meshes",
+                  {{{"id", "spot"},
+                    {"mesh", "meshes/spot.obj"},
+                    {"samples", small_spot_params().samples},
+                    {"neighbors", small_spot_params().neighbors},
+                    {"sampling", "fmm"}}}}};
+  config.update(extra);
+  const fs::path path = data.dir.path() / "geoproxd.json";
+  write_file(path, config.dump(2));
+  return path;
+}
+
+json heavy_field_params() {
+  json sources = json::array();
+  for (int i = 0; i < 300; ++i) sources.push_back({{"face", i * 7}, {"bary", {0.2, 0.3, 0.5}}});
+  return {{"mesh", "spot"}, {"sources", sources}};
+}
+
+TEST(Daemon, SigtermDrainsRequestsInFlightAndExitsZero) {
+  TestData data;
+  const fs::path config = write_config(data, {{"compute_threads", 1}});
+  const fs::path port_file = data.dir.path() / "ports.json";
+  const fs::path log = data.dir.path() / "daemon.log";
+  Daemon daemon({"--config", config.string(), "--port-file", port_file.string()}, log);
+  const std::uint16_t port = wait_for_port(port_file, log);
+  ASSERT_NE(port, 0);
+  wait_for_state(port, "spot", "ready");
+  Client c(port);
+  // Two heavy requests in flight, then SIGTERM: both are answered before the exit.
+  c.send(1, "geodesic.field", heavy_field_params());
+  c.send(2, "geodesic.field", heavy_field_params());
+  std::this_thread::sleep_for(20ms);
+  daemon.signal(SIGTERM);
+  std::set<int> answered;
+  for (int i = 0; i < 2; ++i) {
+    const json reply = c.read_json(30s);
+    EXPECT_TRUE(reply.contains("result")) << reply.dump();
+    answered.insert(reply["id"].get<int>());
+  }
+  EXPECT_EQ(answered, (std::set<int>{1, 2}));
+  EXPECT_EQ(daemon.wait(30s), 0) << read_file(log);
+  EXPECT_THROW(Client{port}, std::runtime_error);  // no longer accepting
+  const std::string text = read_file(log);
+  EXPECT_NE(text.find("shutting down gracefully"), std::string::npos) << text;
+  EXPECT_NE(text.find("geoproxd stopped"), std::string::npos) << text;
+}
+
+TEST(Daemon, DrainingServerRefusesNewWorkAsShuttingDown) {
+  TestData data;
+  Config config = spot_config(data);
+  config.compute_threads = 1;
+  RunningServer server(config);
+  Client c(server.port());
+  c.send(1, "geodesic.field", heavy_field_params());
+  std::this_thread::sleep_for(20ms);
+  server.server->shutdown();
+  std::this_thread::sleep_for(20ms);
+  c.send(2, "geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}});
+  c.send(3, "server.health");
+  std::map<int, json> replies;
+  for (int i = 0; i < 3; ++i) {
+    const json reply = c.read_json(30s);
+    replies[reply["id"].get<int>()] = reply;
+  }
+  EXPECT_TRUE(replies[1].contains("result"));
+  EXPECT_EQ(replies[2]["error"]["data"]["reason"], "ShuttingDown");
+  EXPECT_EQ(replies[3]["result"]["status"], "draining");
+  EXPECT_EQ(replies[3]["result"]["ready"], false);
+}
+
+TEST(Daemon, SighupReloadsAGoodGraphAndKeepsTheOldOneOnACorruptedOne) {
+  TestData data;
+  const fs::path config = write_config(data);
+  const fs::path port_file = data.dir.path() / "ports.json";
+  const fs::path log = data.dir.path() / "daemon.log";
+  Daemon daemon({"--config", config.string(), "--port-file", port_file.string()}, log);
+  const std::uint16_t port = wait_for_port(port_file, log);
+  ASSERT_NE(port, 0);
+  const json before = wait_for_state(port, "spot", "ready");
+  const std::string v1 = before["mesh_version"];
+  const fs::path graph = data.graph_dir() / "spot.geoprox";
+
+  // A good new graph (other parameters), renamed into place: SIGHUP swaps it in.
+  const fs::path other = cached_graph(spot_obj(), BuildParams{300, 10, 0, SamplingMethod::FastMarching});
+  fs::copy_file(other, data.graph_dir() / "new.tmp");
+  fs::rename(data.graph_dir() / "new.tmp", graph);
+  daemon.signal(SIGHUP);
+  std::string v2;
+  for (int i = 0; i < 500 && (v2.empty() || v2 == v1); ++i) {
+    std::this_thread::sleep_for(10ms);
+    v2 = Client(port).result("mesh.list")["meshes"][0]["mesh_version"];
+  }
+  EXPECT_NE(v2, v1);
+  Client c(port);
+  EXPECT_EQ(c.result("geodesic.distance",
+                     {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}})["mesh_version"],
+            v2);
+  EXPECT_EQ(c.result("mesh.list")["meshes"][0]["samples"], 300);
+
+  // A corrupted graph (one flipped byte): the reload fails, the old graph keeps serving.
+  std::string bytes = read_file(graph);
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5a);
+  write_file(data.graph_dir() / "bad.tmp", bytes);
+  fs::rename(data.graph_dir() / "bad.tmp", graph);
+  daemon.signal(SIGHUP);
+  bool failed_logged = false;
+  for (int i = 0; i < 500 && !failed_logged; ++i) {
+    std::this_thread::sleep_for(10ms);
+    failed_logged = read_file(log).find("reload failed") != std::string::npos;
+  }
+  EXPECT_TRUE(failed_logged) << read_file(log);
+  const json after = c.result("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}});
+  EXPECT_EQ(after["mesh_version"], v2);
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.wait(30s), 0);
+}
+
+TEST(Daemon, CheckValidatesConfigMeshesAndGraphs) {
+  TestData data;
+  const fs::path log = data.dir.path() / "check.log";
+  {
+    const fs::path config = write_config(data);
+    Daemon check({"--config", config.string(), "--check"}, log);
+    EXPECT_EQ(check.wait(60s), 0) << read_file(log);
+  }
+  {
+    // A corrupted graph file fails the check.
+    write_file(data.graph_dir() / "spot.geoprox", "GEOPROXG not really a graph");
+    const fs::path config = write_config(data);
+    Daemon check({"--config", config.string(), "--check"}, log);
+    EXPECT_EQ(check.wait(60s), 1);
+    EXPECT_NE(read_file(log).find("graph spot"), std::string::npos) << read_file(log);
+  }
+  {
+    // An unknown key is refused, naming it.
+    const fs::path config = write_config(data, {{"prot", 1}});
+    Daemon check({"--config", config.string(), "--check"}, log);
+    EXPECT_EQ(check.wait(60s), 1);
+    EXPECT_NE(read_file(log).find("unknown key \"prot\""), std::string::npos) << read_file(log);
+  }
+}
+
+TEST(Registry, AFailingMeshDoesNotTakeTheOthersDown) {
+  TestData data;
+  fs::copy_file(source_dir() / "tests/data/nonmanifold_edge.obj",
+                data.data_dir() / "meshes/broken.obj");
+  Config config = spot_config(data);
+  MeshConfig broken;
+  broken.id = "broken";
+  broken.mesh_path = data.data_dir() / "meshes/broken.obj";
+  broken.graph_path = data.graph_dir() / "broken.geoprox";
+  config.meshes.push_back(broken);
+  MeshConfig missing;
+  missing.id = "missing";
+  missing.mesh_path = data.data_dir() / "meshes/missing.obj";
+  missing.graph_path = data.graph_dir() / "missing.geoprox";
+  config.meshes.push_back(missing);
+  RunningServer server(config);
+  Client c(server.port());
+  const json list = c.result("mesh.list");
+  ASSERT_EQ(list["meshes"].size(), 3u);
+  EXPECT_EQ(list["meshes"][0]["state"], "ready");
+  EXPECT_EQ(list["meshes"][1]["state"], "failed");
+  EXPECT_NE(list["meshes"][1]["error"].get<std::string>().find("NonManifold"), std::string::npos)
+      << list.dump();
+  EXPECT_EQ(list["meshes"][2]["state"], "failed");
+  EXPECT_NE(list["meshes"][2]["error"].get<std::string>().find("FileNotFound"), std::string::npos);
+  EXPECT_EQ(c.error_reason("geodesic.distance",
+                           {{"mesh", "broken"}, {"source", "v:0"}, {"target", "v:1"}}),
+            "MeshBuildFailed");
+  EXPECT_TRUE(c.result("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}})
+                  .contains("distance"));
+  const json health = c.result("server.health");
+  EXPECT_EQ(health["status"], "ok");
+  EXPECT_EQ(health["meshes_ready"], 1);
+  EXPECT_EQ(health["meshes_total"], 3);
+}
+
+TEST(Registry, MissingGraphIsBuiltInTheBackgroundWithProgress) {
+  TestData data;
+  fs::remove(data.graph_dir() / "spot.geoprox");
+  Config config = spot_config(data);
+  config.build_threads = 1;
+  RunningServer server(config, /*wait_ready=*/false);
+  Client c(server.port());
+  const json first = c.result("mesh.list")["meshes"][0];
+  if (first["state"] == "building") {
+    EXPECT_TRUE(first["mesh_version"].is_null());
+    EXPECT_EQ(c.error_reason("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}}),
+              "MeshNotReady");
+    EXPECT_EQ(c.result("server.health")["status"], "starting");
+  }
+  const json ready = wait_for_state(server.port(), "spot", "ready");
+  EXPECT_TRUE(fs::exists(data.graph_dir() / "spot.geoprox"));
+  EXPECT_EQ(ready["samples"], small_spot_params().samples);
+}
+
+class AdminTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    Config config = spot_config(data_);
+    config.admin_token = "s3cret";
+    server_ = std::make_unique<RunningServer>(config);
+  }
+  TestData data_;
+  std::unique_ptr<RunningServer> server_;
+};
+
+TEST_F(AdminTest, AdminMethodsNeedTheToken) {
+  Client c(server_->port());
+  EXPECT_EQ(c.error_reason("admin.reload", {{"token", "wrong"}}), "Unauthorized");
+  EXPECT_EQ(c.error_reason("admin.reload", {{"token", ""}}), "Unauthorized");
+  EXPECT_EQ(c.error_reason("admin.unregister", {{"mesh", "spot"}, {"token", "s3cre"}}),
+            "Unauthorized");
+  EXPECT_EQ(c.result("mesh.list")["meshes"].size(), 1u);
+  // Without a configured token, admin methods are off whatever is sent.
+  TestData other;
+  RunningServer off(spot_config(other));
+  Client d(off.port());
+  EXPECT_EQ(d.error_reason("admin.reload", {{"token", "s3cret"}}), "Unauthorized");
+  EXPECT_EQ(d.result("server.info")["admin_enabled"], false);
+}
+
+TEST_F(AdminTest, PathsAreConfinedToTheDataDirectory) {
+  Client c(server_->port());
+  auto reg = [&](const std::string& path) {
+    return c.error_reason("admin.register",
+                          {{"token", "s3cret"}, {"mesh", "x"}, {"mesh_file", path}});
+  };
+  EXPECT_EQ(reg("../meshes/spot.obj"), "PathNotAllowed");
+  EXPECT_EQ(reg("meshes/../../graphs/spot.geoprox"), "PathNotAllowed");
+  EXPECT_EQ(reg("/etc/passwd"), "PathNotAllowed");
+  EXPECT_EQ(reg(spot_obj().string()), "PathNotAllowed");  // absolute, outside
+  fs::create_symlink(spot_obj(), data_.data_dir() / "meshes/link.obj");
+  EXPECT_EQ(reg("meshes/link.obj"), "PathNotAllowed");  // a symlink resolving outside
+  fs::create_directory_symlink(fs::path("/etc"), data_.data_dir() / "etc");
+  EXPECT_EQ(reg("etc/passwd"), "PathNotAllowed");
+  EXPECT_EQ(reg("meshes/none.obj"), "NotFound");
+  EXPECT_EQ(reg("meshes"), "BadMeshFile");  // a directory
+  EXPECT_EQ(c.error_reason("admin.register", {{"token", "s3cret"},
+                                               {"mesh", "x"},
+                                               {"mesh_file", "meshes/spot.obj"},
+                                               {"graph_file", "/tmp/x.geoprox"}}),
+            "PathNotAllowed");
+  EXPECT_EQ(c.error_reason("admin.register",
+                           {{"token", "s3cret"}, {"mesh", "spot"}, {"mesh_file", "meshes/spot.obj"}}),
+            "MeshExists");
+  // An absolute path inside the data directory is fine.
+  const json ok = c.result("admin.register",
+                           {{"token", "s3cret"},
+                            {"mesh", "abs"},
+                            {"mesh_file", (data_.data_dir() / "meshes/spot.obj").string()},
+                            {"build", {{"samples", 200}, {"neighbors", 8}}}});
+  EXPECT_EQ(ok["mesh"], "abs");
+}
+
+TEST_F(AdminTest, RegisterRebuildReloadUnregister) {
+  Client c(server_->port());
+  const json registered = c.result("admin.register",
+                                   {{"token", "s3cret"},
+                                    {"mesh", "spot2"},
+                                    {"mesh_file", "meshes/spot.obj"},
+                                    {"graph_file", "spot2.geoprox"},
+                                    {"build", {{"samples", 200}, {"neighbors", 8}, {"sampling", "fmm"}}}});
+  EXPECT_EQ(registered["mesh"], "spot2");
+  EXPECT_EQ(registered["state"], "building");
+  const json ready = wait_for_state(server_->port(), "spot2", "ready");
+  EXPECT_EQ(ready["samples"], 200);
+  EXPECT_TRUE(fs::exists(data_.data_dir() / "spot2.geoprox"));
+  const std::string v1 = ready["mesh_version"];
+  const json info = c.result("mesh.info", {{"mesh", "spot2"}});
+  EXPECT_EQ(info["graph_file"], "spot2.geoprox");
+
+  // Rebuild with other parameters: the old graph serves until the new one is swapped in.
+  const json rebuilding = c.result("admin.rebuild", {{"token", "s3cret"}, {"mesh", "spot2"},
+                                                     {"build", {{"samples", 250}}}});
+  EXPECT_EQ(rebuilding["mesh_version"], v1);
+  EXPECT_TRUE(c.result("geodesic.distance", {{"mesh", "spot2"}, {"source", "v:0"}, {"target", "v:1"}})
+                  .contains("distance"));
+  ASSERT_TRUE(server_->server->registry().wait_idle(60s));
+  const json rebuilt = wait_for_state(server_->port(), "spot2", "ready");
+  EXPECT_EQ(rebuilt["samples"], 250);
+  EXPECT_NE(rebuilt["mesh_version"], v1);
+
+  // admin.reload: unchanged files are not swapped; a corrupted one is refused with an error.
+  const json unchanged = c.result("admin.reload", {{"token", "s3cret"}});
+  ASSERT_EQ(unchanged["meshes"].size(), 2u);
+  EXPECT_EQ(unchanged["meshes"][0]["reloaded"], false);
+  EXPECT_TRUE(unchanged["meshes"][0]["error"].is_null());
+  write_file(data_.data_dir() / "bad.tmp", "GEOPROXG garbage");
+  fs::rename(data_.data_dir() / "bad.tmp", data_.data_dir() / "spot2.geoprox");
+  const json refused = c.result("admin.reload", {{"token", "s3cret"}, {"mesh", "spot2"}});
+  ASSERT_EQ(refused["meshes"].size(), 1u);
+  EXPECT_EQ(refused["meshes"][0]["reloaded"], false);
+  EXPECT_EQ(refused["meshes"][0]["error"]["data"]["reason"], "BadMeshFile");
+  EXPECT_EQ(refused["meshes"][0]["mesh_version"], rebuilt["mesh_version"]);
+  EXPECT_TRUE(c.result("geodesic.distance", {{"mesh", "spot2"}, {"source", "v:0"}, {"target", "v:1"}})
+                  .contains("distance"));
+
+  const json gone = c.result("admin.unregister", {{"token", "s3cret"}, {"mesh", "spot2"}});
+  EXPECT_EQ(gone, json({{"mesh", "spot2"}, {"unregistered", true}}));
+  EXPECT_EQ(c.error_reason("geodesic.distance", {{"mesh", "spot2"}, {"source", "v:0"}, {"target", "v:1"}}),
+            "UnknownMesh");
+  EXPECT_EQ(c.error_reason("admin.unregister", {{"token", "s3cret"}, {"mesh", "spot2"}}),
+            "UnknownMesh");
+}
+
+TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {
+  const json document = json::parse(read_file(source_dir() / "configs/default.json"));
+  const Config config = parse_config(document, source_dir() / "configs");
+  EXPECT_EQ(config.port, 7878);
+  EXPECT_EQ(config.admin_port, 7879);
+  EXPECT_EQ(config.bind, "127.0.0.1");
+  EXPECT_EQ(config.data_dir, source_dir() / "data");
+  ASSERT_EQ(config.meshes.size(), 2u);
+  EXPECT_EQ(config.meshes[0].id, "spot");
+  EXPECT_EQ(config.meshes[0].mesh_path, source_dir() / "data/meshes/spot.obj");
+  EXPECT_EQ(config.meshes[1].id, "dragon");
+  EXPECT_EQ(config.meshes[1].graph_path, source_dir() / "var/graphs/dragon.geoprox");
+
+  auto refused = [&](const json& d) -> std::string {
+    try {
+      parse_config(d, "/tmp");
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  EXPECT_NE(refused({{"limits", {{"max_queue", 1}, {"max_qeue", 2}}}}).find("\"max_qeue\""),
+            std::string::npos);
+  EXPECT_NE(refused({{"meshes", {{{"id", "a"}, {"mesh", "a.obj"}, {"sample", 3}}}}}).find("\"sample\""),
+            std::string::npos);
+  EXPECT_NE(refused({{"port", "7878"}}).find("port"), std::string::npos);
+  EXPECT_NE(refused({{"port", 70000}}).find("port"), std::string::npos);
+  EXPECT_NE(refused({{"log_level", "loud"}}).find("log_level"), std::string::npos);
+  EXPECT_NE(refused({{"meshes", {{{"id", "../x"}, {"mesh", "a.obj"}}}}}).find("id"),
+            std::string::npos);
+  EXPECT_NE(refused({{"meshes", {{{"id", "a"}, {"mesh", "a.obj"}}, {{"id", "a"}, {"mesh", "b.obj"}}}}})
+                .find("twice"),
+            std::string::npos);
+  EXPECT_NE(refused({{"limits", {{"default_timeout_ms", 5000}, {"max_timeout_ms", 100}}}})
+                .find("default_timeout_ms"),
+            std::string::npos);
+  EXPECT_NE(refused({{"meshes", {{{"id", "a"}, {"mesh", "a.obj"}, {"sampling", "best"}}}}})
+                .find("sampling"),
+            std::string::npos);
+}
+
+TEST(Config, EnvironmentOverridesLogLevelAndAdminToken) {
+  Config config;
+  setenv("GEOPROX_LOG_LEVEL", "debug", 1);
+  setenv("GEOPROX_ADMIN_TOKEN", "from-env", 1);
+  apply_environment(config);
+  unsetenv("GEOPROX_LOG_LEVEL");
+  unsetenv("GEOPROX_ADMIN_TOKEN");
+  EXPECT_EQ(config.log_level, "debug");
+  EXPECT_EQ(config.admin_token, "from-env");
+}
+
+}  // namespace
+}  // namespace geoprox::server::testing

@@ -1,0 +1,289 @@
+// Every method end to end over a real socket, compared with in-process GeodesicQuery answers.
+#include <cmath>
+
+#include "core/exact_geodesic.h"
+#include "protocol/base64.h"
+#include "server/service.h"
+#include "tests/server/server_test_support.h"
+
+namespace geoprox::server::testing {
+namespace {
+
+class MethodsTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    data_ = new TestData();
+    Config config = spot_config(*data_);
+    config.admin_token = "s3cret";
+    server_ = new RunningServer(config);
+    reference_ = new Reference(data_->data_dir() / "meshes/spot.obj",
+                               data_->graph_dir() / "spot.geoprox");
+  }
+  static void TearDownTestSuite() {
+    delete reference_;
+    delete server_;
+    delete data_;
+  }
+  static std::string version() { return mesh_version_of(reference_->file); }
+
+  static TestData* data_;
+  static RunningServer* server_;
+  static Reference* reference_;
+};
+TestData* MethodsTest::data_ = nullptr;
+RunningServer* MethodsTest::server_ = nullptr;
+Reference* MethodsTest::reference_ = nullptr;
+
+TEST_F(MethodsTest, DistanceEqualsInProcessForEveryPointKind) {
+  Client c(server_->port());
+  Reference& r = *reference_;
+  const SurfacePoint s = SurfacePoint::vertex(0);
+  struct Case {
+    json wire;
+    SurfacePoint point;
+  };
+  const std::vector<Case> cases = {
+      {"v:1500", SurfacePoint::vertex(1500)},
+      {json{{"face", 100}, {"bary", {0.2, 0.3, 0.5}}}, SurfacePoint::face(100, 0.2, 0.3, 0.5)},
+      {json{{"edge", 208}, {"t", 0.25}}, SurfacePoint::edge(208, 0.25)},
+      {json{{"sample", 7}}, r.query.sample_point(7)},
+  };
+  for (const Case& k : cases) {
+    const json result =
+        c.result("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", k.wire}});
+    const DistanceResult expected = r.query.distance(s, k.point, r.scratch);
+    EXPECT_DOUBLE_EQ(result["distance"].get<double>(), expected.distance) << k.wire.dump();
+    EXPECT_EQ(result["exact"].get<bool>(), expected.exact);
+    EXPECT_EQ(result["mesh"], "spot");
+    EXPECT_EQ(result["mesh_version"], version());
+    EXPECT_EQ(result["source"], json({{"vertex", 0}}));
+  }
+  // A position snaps to the surface: the answer is the snapped point's.
+  const Vec3 p = r.mesh.face_point(100, {0.2, 0.3, 0.5});
+  const json result = c.result("geodesic.distance", {{"mesh", "spot"},
+                                                     {"source", "v:0"},
+                                                     {"target", {{"position", {p.x, p.y, p.z}}}}});
+  const SnapResult snapped = r.query.snap(p);
+  EXPECT_DOUBLE_EQ(result["distance"].get<double>(),
+                   r.query.distance(s, snapped.point, r.scratch).distance);
+}
+
+TEST_F(MethodsTest, ExactDistanceEqualsTheExactSolver) {
+  Client c(server_->port());
+  const json result = c.result(
+      "geodesic.distance",
+      {{"mesh", "spot"}, {"source", "v:0"}, {"target", "f:100:0.2:0.3:0.5"}, {"exact", true}});
+  ExactGeodesicSolver solver(reference_->mesh, reference_->geometry);
+  solver.solve(SurfacePoint::vertex(0));
+  EXPECT_TRUE(result["exact"].get<bool>());
+  EXPECT_NEAR(result["distance"].get<double>(),
+              solver.distance(SurfacePoint::face(100, 0.2, 0.3, 0.5)), 1e-12);
+}
+
+TEST_F(MethodsTest, PathEqualsInProcess) {
+  Client c(server_->port());
+  const json result =
+      c.result("geodesic.path", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "e:208:0.5"}});
+  const PathResult expected = reference_->query.path(
+      SurfacePoint::vertex(0), SurfacePoint::edge(208, 0.5), reference_->scratch);
+  EXPECT_DOUBLE_EQ(result["distance"].get<double>(), expected.distance);
+  ASSERT_EQ(result["points"].size(), expected.points.size());
+  for (std::size_t i = 0; i < expected.points.size(); ++i) {
+    const json& point = result["points"][i];
+    const auto [face, bary] = expected.points[i].point.in_face(reference_->mesh);
+    EXPECT_EQ(point["face"].get<std::uint32_t>(), face);
+    EXPECT_DOUBLE_EQ(point["position"][0].get<double>(), expected.points[i].position.x);
+    EXPECT_DOUBLE_EQ(point["bary"][1].get<double>(), bary[1]);
+  }
+  EXPECT_EQ(result["target"], json({{"edge", 208}, {"t", 0.5}}));
+}
+
+TEST_F(MethodsTest, FieldInBothEncodingsEqualsInProcess) {
+  Client c(server_->port());
+  const std::vector<SurfacePoint> sources = {SurfacePoint::vertex(0),
+                                             SurfacePoint::vertex(2000)};
+  DistanceFieldOptions options;
+  options.max_distance = 0.5;
+  const DistanceField expected = reference_->query.field(sources, reference_->scratch, options);
+
+  const json j = c.result("geodesic.field", {{"mesh", "spot"},
+                                             {"sources", {"v:0", "v:2000"}},
+                                             {"cutoff", 0.5}});
+  ASSERT_EQ(j["distances"].size(), reference_->mesh.num_vertices());
+  EXPECT_EQ(j["encoding"], "json");
+  EXPECT_EQ(j["vertices"], reference_->mesh.num_vertices());
+  std::size_t reached = 0;
+  for (std::size_t v = 0; v < expected.distances.size(); ++v) {
+    if (std::isfinite(expected.distances[v])) {
+      ++reached;
+      EXPECT_DOUBLE_EQ(j["distances"][v].get<double>(), expected.distances[v]);
+      EXPECT_EQ(j["nearest_source"][v].get<int>(), expected.nearest_source[v]);
+    } else {
+      EXPECT_TRUE(j["distances"][v].is_null());
+      EXPECT_TRUE(j["nearest_source"][v].is_null());
+    }
+  }
+  EXPECT_EQ(j["reached"], reached);
+
+  const json b = c.result("geodesic.field", {{"mesh", "spot"},
+                                             {"sources", {"v:0", "v:2000"}},
+                                             {"cutoff", 0.5},
+                                             {"encoding", "f32le-base64"}});
+  const std::vector<float> f = protocol::decode_f32le_base64(b["distances"].get<std::string>());
+  const std::vector<std::uint32_t> n =
+      protocol::decode_u32le_base64(b["nearest_source"].get<std::string>());
+  ASSERT_EQ(f.size(), expected.distances.size());
+  for (std::size_t v = 0; v < f.size(); ++v) {
+    EXPECT_EQ(f[v], static_cast<float>(expected.distances[v]));
+    EXPECT_EQ(n[v], expected.nearest_source[v] < 0 ? 0xFFFFFFFFu
+                                                   : static_cast<std::uint32_t>(
+                                                         expected.nearest_source[v]));
+  }
+}
+
+TEST_F(MethodsTest, MatrixEqualsInProcess) {
+  Client c(server_->port());
+  const json result = c.result("geodesic.matrix", {{"mesh", "spot"},
+                                                   {"sources", {"v:0", "v:1"}},
+                                                   {"targets", {"v:2", "f:5:0.2:0.3:0.5", "s:7"}}});
+  const std::vector<SurfacePoint> s = {SurfacePoint::vertex(0), SurfacePoint::vertex(1)};
+  const std::vector<SurfacePoint> t = {SurfacePoint::vertex(2),
+                                       SurfacePoint::face(5, 0.2, 0.3, 0.5),
+                                       reference_->query.sample_point(7)};
+  const std::vector<double> expected = reference_->query.matrix(s, t, reference_->scratch);
+  ASSERT_EQ(result["distances"].size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      EXPECT_DOUBLE_EQ(result["distances"][i][k].get<double>(), expected[i * 3 + k]);
+    }
+  }
+  EXPECT_EQ(result["unreachable"], 0);
+  EXPECT_EQ(result["sources"], 2);
+  EXPECT_EQ(result["targets"], 3);
+}
+
+TEST_F(MethodsTest, BatchAnswersEachEntryInOrder) {
+  Client c(server_->port());
+  const json result = c.result(
+      "batch",
+      {{"requests",
+        {{{"method", "geodesic.distance"},
+          {"params", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}}}},
+         {{"method", "geodesic.distance"},
+          {"params", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "f:9999:1:0:0"}}}},
+         {{"method", "mesh.list"}},
+         {{"method", "geodesic.nope"}},
+         {{"method", "geodesic.field"},
+          {"params", {{"mesh", "spot"}, {"source", "v:3"}, {"encoding", "f32le-base64"}}}}}}});
+  const json& results = result["results"];
+  ASSERT_EQ(results.size(), 5u);
+  EXPECT_DOUBLE_EQ(results[0]["result"]["distance"].get<double>(),
+                   reference_->query
+                       .distance(SurfacePoint::vertex(0), SurfacePoint::vertex(1),
+                                 reference_->scratch)
+                       .distance);
+  EXPECT_EQ(results[1]["error"]["data"]["reason"], "FaceOutOfRange");
+  EXPECT_EQ(results[1]["error"]["code"], -32602);
+  EXPECT_EQ(results[2]["result"]["meshes"][0]["id"], "spot");
+  EXPECT_EQ(results[3]["error"]["data"]["reason"], "UnknownMethod");
+  EXPECT_EQ(results[4]["result"]["vertices"], reference_->mesh.num_vertices());
+}
+
+TEST_F(MethodsTest, MeshListAndInfo) {
+  Client c(server_->port());
+  const json list = c.result("mesh.list");
+  ASSERT_EQ(list["meshes"].size(), 1u);
+  const json& spot = list["meshes"][0];
+  EXPECT_EQ(spot["id"], "spot");
+  EXPECT_EQ(spot["state"], "ready");
+  EXPECT_EQ(spot["progress"], 1.0);
+  EXPECT_EQ(spot["mesh_version"], version());
+  EXPECT_EQ(spot["vertices"], reference_->mesh.num_vertices());
+  EXPECT_EQ(spot["samples"], reference_->file.counts().samples);
+  EXPECT_TRUE(spot["error"].is_null());
+
+  const json info = c.result("mesh.info", {{"mesh", "spot"}});
+  EXPECT_EQ(info["mesh"], "spot");
+  EXPECT_EQ(info["edges"], reference_->mesh.num_edges());
+  EXPECT_EQ(info["graph_edges"], reference_->file.counts().graph_edges);
+  EXPECT_EQ(info["mesh_file"], "meshes/spot.obj");
+  EXPECT_EQ(info["build"]["samples"], small_spot_params().samples);
+  EXPECT_DOUBLE_EQ(info["covering_radius"].get<double>(), reference_->file.covering_radius());
+  EXPECT_EQ(c.error_reason("mesh.info", {{"mesh", "nope"}}), "UnknownMesh");
+}
+
+TEST_F(MethodsTest, ServerInfoHealthMetrics) {
+  Client c(server_->port());
+  const json info = c.result("server.info");
+  EXPECT_EQ(info["protocol_version"], 1);
+  EXPECT_EQ(info["admin_enabled"], true);
+  EXPECT_EQ(info["limits"]["max_line_bytes"], 1048576);
+  EXPECT_EQ(info["encodings"], json({"json", "f32le-base64"}));
+
+  const json health = c.result("server.health");
+  EXPECT_EQ(health["status"], "ok");
+  EXPECT_EQ(health["ready"], true);
+  EXPECT_EQ(health["meshes_ready"], 1);
+  EXPECT_EQ(health["meshes_total"], 1);
+
+  c.result("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}});
+  const json metrics = c.result("server.metrics");
+  EXPECT_EQ(metrics["format"], "prometheus-text-0.0.4");
+  const std::string text = metrics["text"];
+  EXPECT_NE(text.find("geoprox_requests_total{method=\"geodesic.distance\",outcome=\"ok\"}"),
+            std::string::npos);
+  EXPECT_NE(text.find("geoprox_request_duration_seconds_bucket{method=\"geodesic.distance\""),
+            std::string::npos);
+  EXPECT_NE(text.find("geoprox_mesh_ready{mesh=\"spot\"} 1"), std::string::npos);
+  EXPECT_NE(text.find("geoprox_queue_depth"), std::string::npos);
+}
+
+TEST_F(MethodsTest, UnreachableIsAnErrorInDistanceAndNullInMatrix) {
+  // two_components.obj: two separate triangles' worth of surface.
+  TempDir dir;
+  fs::create_directories(dir.path() / "data/meshes");
+  fs::copy_file(source_dir() / "tests/data/two_components.obj",
+                dir.path() / "data/meshes/two.obj");
+  const TriangleMesh mesh = load_mesh((dir.path() / "data/meshes/two.obj").string());
+  Config config;
+  config.port = 0;
+  config.admin_port = 0;
+  config.compute_threads = 1;
+  config.build_threads = 1;
+  config.data_dir = dir.path() / "data";
+  config.graph_dir = dir.path() / "graphs";
+  MeshConfig two;
+  two.id = "two";
+  two.mesh_path = config.data_dir / "meshes/two.obj";
+  two.graph_path = config.graph_dir / "two.geoprox";
+  two.build = BuildParams{static_cast<std::uint32_t>(std::min<std::size_t>(4, mesh.num_vertices())),
+                          1, 0, SamplingMethod::FastMarching};
+  config.meshes.push_back(two);
+  RunningServer server(config);
+  Client c(server.port());
+  const json list = c.result("mesh.list");
+  if (list["meshes"][0]["state"] != "ready") GTEST_SKIP() << list.dump();
+  // The last vertex lies in the other component than vertex 0.
+  const std::string far = "v:" + std::to_string(mesh.num_vertices() - 1);
+  const json reply = c.call("geodesic.distance", {{"mesh", "two"}, {"source", "v:0"}, {"target", far}});
+  ASSERT_TRUE(reply.contains("error")) << reply.dump();
+  EXPECT_EQ(reply["error"]["data"]["reason"], "Unreachable");
+  EXPECT_EQ(reply["error"]["code"], -32010);
+  const json matrix =
+      c.result("geodesic.matrix", {{"mesh", "two"}, {"sources", {"v:0"}}, {"targets", {"v:0", far}}});
+  EXPECT_EQ(matrix["distances"][0][0], 0.0);
+  EXPECT_TRUE(matrix["distances"][0][1].is_null());
+  EXPECT_EQ(matrix["unreachable"], 1);
+}
+
+TEST(ConstantTimeEqual, ComparesWholeSecrets) {
+  EXPECT_TRUE(constant_time_equal("s3cret", "s3cret"));
+  EXPECT_FALSE(constant_time_equal("s3cre", "s3cret"));
+  EXPECT_FALSE(constant_time_equal("s3cretx", "s3cret"));
+  EXPECT_FALSE(constant_time_equal("", "s3cret"));
+  EXPECT_FALSE(constant_time_equal("s3creT", "s3cret"));
+  EXPECT_FALSE(constant_time_equal("", ""));
+}
+
+}  // namespace
+}  // namespace geoprox::server::testing
