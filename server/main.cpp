@@ -2,6 +2,11 @@
 //
 //   geoproxd --config FILE [--bind ADDR] [--port N] [--admin-port N] [--port-file FILE]
 //   geoproxd --config FILE --check
+//   geoproxd --probe [--bind ADDR] [--admin-port N]
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include <spdlog/spdlog.h>
@@ -42,6 +47,9 @@ constexpr const char* kUsage =
     "  --port-file FILE  once listening, write {\"port\": N, \"admin_port\": M} to FILE\n"
     "  --check           validate the config, the meshes and the graph files, then exit\n"
     "                    (0: all usable; 1: something is wrong, printed on stderr)\n"
+    "  --probe           container health check: GET /readyz on the admin port (default\n"
+    "                    127.0.0.1:7879, or --bind/--admin-port; no --config needed);\n"
+    "                    exit 0 when ready, 1 otherwise\n"
     "  --version, --help\n"
     "\n"
     "Environment: GEOPROX_LOG_LEVEL (trace..off), GEOPROX_ADMIN_TOKEN (enables admin methods).\n"
@@ -55,6 +63,7 @@ struct Args {
   std::optional<int> admin_port;
   std::string port_file;
   bool check = false;
+  bool probe = false;
 };
 
 int parse_port(const std::string& flag, const std::string& text) {
@@ -64,6 +73,39 @@ int parse_port(const std::string& flag, const std::string& text) {
     throw ConfigError(flag + ": \"" + text + "\" is not a port number (0 to 65535)");
   }
   return static_cast<int>(value);
+}
+
+/// `--probe`: readiness over the admin port with plain sockets (the runtime image has no curl).
+int run_probe(const std::string& address, int port) {
+  sockaddr_in where{};
+  where.sin_family = AF_INET;
+  where.sin_port = htons(static_cast<std::uint16_t>(port));
+  const std::string host = address == "0.0.0.0" ? "127.0.0.1" : address;
+  if (inet_pton(AF_INET, host.c_str(), &where.sin_addr) != 1) {
+    std::fprintf(stderr, "geoproxd: probe: \"%s\" is not an IPv4 address\n", host.c_str());
+    return 1;
+  }
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return 1;
+  timeval timeout{2, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
+  std::string reply;
+  if (connect(fd, reinterpret_cast<const sockaddr*>(&where), sizeof where) == 0) {
+    const char request[] = "GET /readyz HTTP/1.0\r\nHost: localhost\r\n\r\n";
+    if (send(fd, request, sizeof request - 1, MSG_NOSIGNAL) == sizeof request - 1) {
+      char buf[256];
+      ssize_t n = 0;
+      while (reply.size() < 64 && (n = recv(fd, buf, sizeof buf, 0)) > 0) reply.append(buf, n);
+    }
+  }
+  close(fd);
+  const bool ready = reply.rfind("HTTP/1.", 0) == 0 && reply.find(" 200 ") != std::string::npos;
+  if (!ready) {
+    std::fprintf(stderr, "geoproxd: probe: %s:%d is not ready%s\n", host.c_str(), port,
+                 reply.empty() ? " (no answer)" : "");
+  }
+  return ready ? 0 : 1;
 }
 
 /// Validates every mesh and graph file without starting anything. Returns the exit code.
@@ -136,11 +178,14 @@ int run(int argc, char** argv) {
       args.port_file = value();
     } else if (a == "--check") {
       args.check = true;
+    } else if (a == "--probe") {
+      args.probe = true;
     } else {
       std::fprintf(stderr, "geoproxd: unknown argument \"%s\"\n%s", a.c_str(), kUsage);
       return 2;
     }
   }
+  if (args.probe) return run_probe(args.bind.value_or("127.0.0.1"), args.admin_port.value_or(7879));
   if (args.config.empty()) {
     std::fprintf(stderr, "geoproxd: --config FILE is required\n%s", kUsage);
     return 2;

@@ -1,0 +1,726 @@
+"""Tests of the geoprox Python client against a real geoproxd.
+
+The daemon binary comes from the environment variable GEOPROXD (ctest sets it). The module
+starts one daemon on an ephemeral port with a temporary config and data directory serving
+data/meshes/spot.obj (its graph is built into a temporary directory at start), waits until
+spot is ready, and runs every method and error path through the client. A few tests use a
+tiny fake server on 127.0.0.1 instead, where the daemon cannot be made to misbehave on cue
+(replies in reverse order, a connection closed mid-request, a server that never answers).
+"""
+
+from __future__ import annotations
+
+import array
+import json
+import math
+import os
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import geoprox
+from geoprox import (
+    GeoproxConnectionError,
+    GeoproxError,
+    GeoproxTimeoutError,
+    Reason,
+    ServerError,
+)
+
+SOURCE_DIR = Path(__file__).resolve().parents[3]
+SPOT_OBJ = SOURCE_DIR / "data" / "meshes" / "spot.obj"
+TOKEN = "test-token"
+# A closed tetrahedron (vertices 0-3) and, apart from it, an open unit square (vertices 4-7).
+TWO_COMPONENTS_OBJ = """\
+v 0 0 0
+v 1 0 0
+v 0 1 0
+v 0 0 1
+v 5 0 0
+v 6 0 0
+v 6 1 0
+v 5 1 0
+f 1 3 2
+f 1 2 4
+f 2 3 4
+f 3 1 4
+f 5 6 7
+f 5 7 8
+"""
+SPOT_VERTICES = 2930
+SPOT_FACES = 5856
+
+
+class Daemon:
+    """A geoproxd subprocess on an ephemeral port, with its config and data in `root`."""
+
+    def __init__(self, binary: str, root: Path, name: str, **config: Any) -> None:
+        self.root = root
+        self.port_file = root / f"{name}.port.json"
+        self.log_path = root / f"{name}.log"
+        document = {
+            "bind": "127.0.0.1",
+            "port": 0,
+            "admin_port": 0,
+            "compute_threads": 2,
+            "build_threads": 2,
+            "data_dir": "data",
+            "graph_dir": "graphs",
+            "admin_token": TOKEN,
+            "log_level": "warn",
+            # Small graph: fast to build, also under sanitizers.
+            "meshes": [{"id": "spot", "mesh": "meshes/spot.obj", "samples": 400, "neighbors": 12}],
+        }
+        document.update(config)
+        config_path = root / f"{name}.json"
+        config_path.write_text(json.dumps(document, indent=2))
+        self.log = open(self.log_path, "wb")
+        self.process = subprocess.Popen(
+            [binary, "--config", str(config_path), "--port-file", str(self.port_file)],
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+            env={k: v for k, v in os.environ.items() if k != "GEOPROX_ADMIN_TOKEN"},
+        )
+        self.port = self._wait_for_port(timeout=60.0)
+
+    def _wait_for_port(self, timeout: float) -> int:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise RuntimeError(
+                    f"geoproxd exited with status {self.process.returncode}:\n{self.output()}"
+                )
+            try:
+                return int(json.loads(self.port_file.read_text())["port"])
+            except (OSError, ValueError, KeyError):
+                time.sleep(0.02)
+        raise RuntimeError(f"geoproxd wrote no port file within {timeout} s:\n{self.output()}")
+
+    def output(self) -> str:
+        self.log.flush()
+        return self.log_path.read_text(errors="replace")
+
+    def client(self, **options: Any) -> geoprox.Client:
+        return geoprox.Client("127.0.0.1", self.port, **options)
+
+    def stop(self) -> int:
+        """SIGTERM, then SIGKILL after 20 s; returns the exit status."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGTERM)
+            try:
+                self.process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        self.log.close()
+        return self.process.returncode
+
+
+class FakeServer:
+    """A one-connection-at-a-time TCP server on 127.0.0.1 whose behaviour per connection is
+    `handle(connection, lines)`, where `lines(n)` reads n request lines (parsed JSON)."""
+
+    def __init__(self, handle: Callable[[socket.socket, Callable[[int], list]], None]) -> None:
+        self._handle = handle
+        self._listener = socket.create_server(("127.0.0.1", 0))
+        self.port = self._listener.getsockname()[1]
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+
+    def _serve(self) -> None:
+        while True:
+            try:
+                connection, _ = self._listener.accept()
+            except OSError:
+                return
+            with connection:
+                reader = connection.makefile("rb")
+
+                def lines(n: int) -> list:
+                    return [json.loads(reader.readline()) for _ in range(n)]
+
+                try:
+                    self._handle(connection, lines)
+                except (OSError, ValueError):
+                    pass
+                finally:
+                    reader.close()  # else the socket stays open until the reader is collected
+
+    def __enter__(self) -> "FakeServer":
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self._listener.close()
+        self._thread.join(timeout=5)
+
+
+def reply(rid: Any, result: Any) -> bytes:
+    return json.dumps({"jsonrpc": "2.0", "id": rid, "result": result}).encode() + b"\n"
+
+
+def float32(value: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", value))[0]
+
+
+ROOT: Optional[tempfile.TemporaryDirectory] = None
+DAEMON: Optional[Daemon] = None
+
+
+def daemon() -> Daemon:
+    """The module's daemon (started by setUpModule)."""
+    assert DAEMON is not None
+    return DAEMON
+
+
+def setUpModule() -> None:
+    global ROOT, DAEMON
+    binary = os.environ.get("GEOPROXD")
+    if not binary:
+        raise RuntimeError(
+            "GEOPROXD is not set: run these tests with GEOPROXD=/path/to/build/server/geoproxd "
+            "(ctest sets it)"
+        )
+    if not os.access(binary, os.X_OK):
+        raise RuntimeError(f"GEOPROXD={binary} is not an executable file")
+    ROOT = tempfile.TemporaryDirectory(prefix="geoprox-python-test-")
+    root = Path(ROOT.name)
+    (root / "data" / "meshes").mkdir(parents=True)
+    (root / "graphs").mkdir()
+    shutil.copy(SPOT_OBJ, root / "data" / "meshes" / "spot.obj")
+    (root / "data" / "meshes" / "two_components.obj").write_text(TWO_COMPONENTS_OBJ)
+    DAEMON = Daemon(binary, root, "main")
+    with daemon().client() as client:
+        client.wait_ready("spot", timeout=300)
+
+
+def tearDownModule() -> None:
+    if DAEMON is not None:
+        status = DAEMON.stop()
+        if status != 0:
+            print(f"geoproxd exited with status {status}:\n{DAEMON.output()}")
+    if ROOT is not None:
+        ROOT.cleanup()
+
+
+class LiveTestCase(unittest.TestCase):
+    """A client on the module's daemon for each test."""
+
+    def setUp(self) -> None:
+        self.client = daemon().client(timeout=60.0, admin_token=TOKEN)
+
+    def tearDown(self) -> None:
+        self.client.close()
+
+    def assertReason(self, error: Optional[GeoproxError], reason: str, code: Optional[int]) -> None:
+        assert error is not None
+        self.assertEqual(error.reason, reason, str(error))
+        self.assertTrue(error.is_reason(reason))
+        self.assertEqual(error.code, code)
+
+
+class QueryTest(LiveTestCase):
+    def test_distance_with_every_point_form(self) -> None:
+        c = self.client
+        forms: list[tuple[str, dict[str, Any]]] = [
+            ("v:12", geoprox.vertex(12)),
+            ("e:7:0.25", geoprox.edge(7, 0.25)),
+            ("f:100:0.2:0.3:0.5", geoprox.face(100, 0.2, 0.3, 0.5)),
+            ("s:3", geoprox.sample(3)),
+            ("p:0.37,-0.29,0.19", geoprox.position(0.37, -0.29, 0.19)),
+        ]
+        for text, obj in forms:
+            with self.subTest(point=text):
+                self.assertEqual(geoprox.parse_point(text), obj)
+                by_text = c.distance("spot", "v:0", text)
+                by_object = c.distance("spot", geoprox.vertex(0), obj)
+                self.assertEqual(by_text["distance"], by_object["distance"])
+                self.assertGreater(by_text["distance"], 0.0)
+                self.assertIsInstance(by_text["exact"], bool)  # near points: exact anyway
+                self.assertEqual(by_text["mesh"], "spot")
+                self.assertIsInstance(by_text["mesh_version"], str)
+                self.assertEqual(by_text["source"], {"vertex": 0})
+                if "position" not in obj:  # positions come back as sent too
+                    self.assertEqual(by_text["target"], obj)
+
+    def test_exact_distance(self) -> None:
+        approx = self.client.distance("spot", "v:0", "v:1500")
+        exact = self.client.distance("spot", "v:0", "v:1500", exact=True)
+        self.assertTrue(exact["exact"])
+        self.assertLessEqual(exact["distance"], approx["distance"] * (1 + 1e-9))
+        self.assertAlmostEqual(
+            exact["distance"], approx["distance"], delta=0.05 * exact["distance"]
+        )
+
+    def test_path(self) -> None:
+        result = self.client.path("spot", "v:0", "e:208:0.5")
+        distance = self.client.distance("spot", "v:0", "e:208:0.5")["distance"]
+        self.assertAlmostEqual(result["distance"], distance, places=12)
+        points = result["points"]
+        self.assertGreaterEqual(len(points), 2)
+        for point in points:
+            self.assertEqual(set(point), {"face", "bary", "position"})
+            self.assertLess(point["face"], SPOT_FACES)
+            self.assertAlmostEqual(sum(point["bary"]), 1.0, places=9)
+            self.assertEqual(len(point["position"]), 3)
+        length = sum(math.dist(a["position"], b["position"]) for a, b in zip(points, points[1:]))
+        self.assertAlmostEqual(length, result["distance"], delta=1e-6)
+
+    def test_field_encodings_agree(self) -> None:
+        c = self.client
+        as_json = c.field("spot", "v:0")
+        as_f32 = c.field("spot", "v:0", encoding="f32le-base64")
+        self.assertEqual(as_json["encoding"], "json")
+        self.assertEqual(as_f32["encoding"], "f32le-base64")
+        self.assertEqual(as_json["vertices"], SPOT_VERTICES)
+        self.assertEqual(as_json["reached"], SPOT_VERTICES)
+        self.assertIsNone(as_json["cutoff"])
+        if geoprox.HAVE_NUMPY:
+            import numpy
+
+            self.assertIsInstance(as_f32["distances"], numpy.ndarray)
+            self.assertEqual(as_f32["distances"].dtype, numpy.float32)
+        else:
+            self.assertIsInstance(as_f32["distances"], array.array)
+            self.assertEqual(as_f32["distances"].typecode, "f")
+        self.assertEqual(len(as_f32["distances"]), SPOT_VERTICES)
+        self.assertEqual(as_json["distances"][0], 0.0)
+        for i, (d64, d32) in enumerate(zip(as_json["distances"], as_f32["distances"])):
+            self.assertEqual(float(d32), float32(d64), f"vertex {i}: {d32} vs {d64}")
+            self.assertLessEqual(abs(float(d32) - d64), 6e-8 * d64 + 1e-30)
+        # Without numpy, whatever is installed.
+        plain = geoprox.Client(port=daemon().port, use_numpy=False)
+        with plain:
+            decoded = plain.field("spot", "v:0", encoding="f32le-base64")["distances"]
+        self.assertIsInstance(decoded, array.array)
+        self.assertEqual(list(decoded), [float(d) for d in as_f32["distances"]])
+
+    def test_field_several_sources_with_cutoff(self) -> None:
+        c = self.client
+        sources: list[geoprox.Point] = ["v:0", geoprox.vertex(1500)]
+        as_json = c.field("spot", sources, cutoff=0.3)
+        as_f32 = c.field("spot", sources=sources, cutoff=0.3, encoding="f32le-base64")
+        self.assertEqual(as_json["cutoff"], 0.3)
+        self.assertLess(as_json["reached"], SPOT_VERTICES)
+        self.assertEqual(as_json["reached"], as_f32["reached"])
+        self.assertEqual(sum(d is not None for d in as_json["distances"]), as_json["reached"])
+        pairs = zip(
+            as_json["distances"],
+            as_f32["distances"],
+            as_json["nearest_source"],
+            as_f32["nearest_source"],
+        )
+        for d64, d32, n_json, n_u32 in pairs:
+            if d64 is None:
+                self.assertEqual(float(d32), math.inf)
+                self.assertIsNone(n_json)
+                self.assertEqual(int(n_u32), geoprox.NOT_REACHED_SOURCE)
+            else:
+                self.assertLessEqual(d64, 0.3)
+                self.assertEqual(float(d32), float32(d64))
+                self.assertIn(n_json, (0, 1))
+                self.assertEqual(int(n_u32), n_json)
+        self.assertEqual(as_json["nearest_source"][0], 0)
+        self.assertEqual(as_json["nearest_source"][1500], 1)
+
+    def test_matrix(self) -> None:
+        sources: list[geoprox.Point] = ["v:0", "e:7:0.25"]
+        targets: list[geoprox.Point] = [
+            "v:2",
+            "f:100:0.2:0.3:0.5",
+            "s:3",
+            geoprox.position(0.37, -0.29, 0.19),
+        ]
+        result = self.client.matrix("spot", sources, targets)
+        self.assertEqual((result["sources"], result["targets"], result["unreachable"]), (2, 4, 0))
+        self.assertEqual(len(result["distances"]), 2)
+        for i, s in enumerate(sources):
+            self.assertEqual(len(result["distances"][i]), 4)
+            for j, t in enumerate(targets):
+                expected = self.client.distance("spot", s, t)["distance"]
+                self.assertAlmostEqual(result["distances"][i][j], expected, places=12)
+
+    def test_batch(self) -> None:
+        r = geoprox.request
+        results = self.client.batch(
+            [
+                r.distance("spot", "v:0", "v:1"),
+                r.distance("spot", "v:0", "f:9999:1:0:0"),
+                r.field("spot", "v:0", encoding="f32le-base64"),
+                ("mesh.info", {"mesh": "spot"}),
+                {"method": "server.health"},
+            ]
+        )
+        self.assertEqual(len(results), 5)
+        self.assertEqual(
+            results[0]["distance"], self.client.distance("spot", "v:0", "v:1")["distance"]
+        )
+        self.assertIsInstance(results[1], ServerError)
+        self.assertReason(results[1], Reason.FACE_OUT_OF_RANGE, -32602)
+        self.assertEqual(len(results[2]["distances"]), SPOT_VERTICES)
+        self.assertNotIsInstance(results[2]["distances"], (str, list))
+        self.assertEqual(results[3]["mesh"], "spot")
+        self.assertTrue(results[4]["ready"])
+        with self.assertRaises(ServerError) as caught:  # structural problem: the whole batch
+            self.client.batch([])
+        self.assertReason(caught.exception, Reason.INVALID_PARAMS, -32602)
+
+
+class InfoTest(LiveTestCase):
+    def test_mesh_list_and_info(self) -> None:
+        meshes = {m["id"]: m for m in self.client.mesh_list()["meshes"]}
+        spot = meshes["spot"]
+        self.assertEqual(spot["state"], "ready")
+        self.assertEqual(
+            (spot["vertices"], spot["faces"], spot["samples"]), (SPOT_VERTICES, SPOT_FACES, 400)
+        )
+        info = self.client.mesh_info("spot")
+        self.assertEqual(info["mesh"], "spot")
+        self.assertEqual(info["mesh_version"], spot["mesh_version"])
+        self.assertEqual(info["edges"], 8784)
+        self.assertEqual(info["build"]["samples"], 400)
+        self.assertEqual(info["build"]["neighbors"], 12)
+        self.assertGreater(info["covering_radius"], 0.0)
+        self.assertEqual(info["mesh_file"], "meshes/spot.obj")
+
+    def test_server_info(self) -> None:
+        info = self.client.server_info()
+        self.assertEqual(info["protocol_version"], 1)
+        self.assertTrue(info["admin_enabled"])
+        self.assertEqual(info["encodings"], ["json", "f32le-base64"])
+        self.assertEqual(self.client.max_line_bytes, info["limits"]["max_line_bytes"])
+        for method in [
+            "geodesic.distance",
+            "geodesic.path",
+            "geodesic.field",
+            "geodesic.matrix",
+            "batch",
+            "mesh.list",
+            "mesh.info",
+            "server.info",
+            "server.health",
+            "server.metrics",
+            "admin.register",
+            "admin.rebuild",
+            "admin.unregister",
+            "admin.reload",
+        ]:
+            self.assertIn(method, info["methods"])
+
+    def test_health_and_metrics(self) -> None:
+        health = self.client.health()
+        self.assertEqual(health["status"], "ok")
+        self.assertTrue(health["ready"])
+        self.assertGreaterEqual(health["meshes_ready"], 1)
+        self.assertGreater(health["uptime_seconds"], 0)
+        self.client.distance("spot", "v:0", "v:1")
+        metrics = self.client.metrics()
+        self.assertEqual(metrics["format"], "prometheus-text-0.0.4")
+        self.assertIn(
+            'geoprox_requests_total{method="geodesic.distance",outcome="ok"}', metrics["text"]
+        )
+
+    def test_timeout_ms_is_sent(self) -> None:
+        self.assertTrue(self.client.health(timeout_ms=5000)["ready"])
+        many = [f"v:{i}" for i in range(60)]
+        with self.assertRaises(ServerError) as caught:
+            self.client.matrix("spot", many, many, timeout_ms=1)
+        self.assertReason(caught.exception, Reason.DEADLINE_EXCEEDED, -32031)
+        self.assertTrue(caught.exception.retryable)
+
+
+class ErrorTest(LiveTestCase):
+    def check(self, reason: str, code: int, call: Callable[[], Any]) -> ServerError:
+        with self.assertRaises(ServerError) as caught:
+            call()
+        self.assertReason(caught.exception, reason, code)
+        self.assertFalse(caught.exception.retryable)
+        self.assertEqual(caught.exception.data["reason"], reason)
+        self.assertTrue(caught.exception.message)
+        return caught.exception
+
+    def test_unknown_mesh(self) -> None:
+        error = self.check(
+            Reason.UNKNOWN_MESH, -32001, lambda: self.client.distance("spott", "v:0", "v:1")
+        )
+        self.assertIsInstance(error, GeoproxError)
+        self.assertIn("spott", str(error))
+        self.check(Reason.UNKNOWN_MESH, -32001, lambda: self.client.mesh_info("nope"))
+
+    def test_bad_points(self) -> None:
+        d = lambda target: lambda: self.client.distance("spot", "v:0", target)  # noqa: E731
+        self.check(Reason.FACE_OUT_OF_RANGE, -32602, d("f:9999:0.2:0.3:0.5"))
+        self.check(Reason.FACE_OUT_OF_RANGE, -32602, d(geoprox.face(SPOT_FACES, 1, 0, 0)))
+        self.check(Reason.VERTEX_OUT_OF_RANGE, -32602, d("v:99999"))
+        self.check(Reason.EDGE_OUT_OF_RANGE, -32602, d("e:99999:0.5"))
+        self.check(Reason.SAMPLE_OUT_OF_RANGE, -32602, d("s:400"))
+        self.check(Reason.BAD_BARYCENTRIC, -32602, d("f:5:0.2:0.3:0.6"))
+        self.check(Reason.BAD_EDGE_PARAMETER, -32602, d(geoprox.edge(7, 1.5)))
+        self.check(Reason.BAD_POINT, -32602, d("x:1"))
+        self.check(Reason.BAD_POINT, -32602, d({"vertex": 1, "face": 2}))
+
+    def test_bad_requests(self) -> None:
+        self.check(Reason.UNKNOWN_METHOD, -32601, lambda: self.client.call("geodesic.distances"))
+        self.check(
+            Reason.INVALID_PARAMS,
+            -32602,
+            lambda: self.client.call(
+                "geodesic.distance",
+                {"mesh": "spot", "source": "v:0", "target": "v:1", "max_distance": 1},
+            ),
+        )
+        self.check(
+            Reason.INVALID_PARAMS, -32602, lambda: self.client.field("spot", "v:0", encoding="f16")
+        )
+        error = self.check(
+            Reason.TOO_LARGE,
+            -32020,
+            lambda: self.client.call("server.health", {"pad": "x" * (2 << 20)}),
+        )
+        self.assertIn("line", error.message)
+        self.assertTrue(self.client.health()["ready"])  # the connection is still usable
+        with self.assertRaises(TypeError):
+            self.client.distance("spot", 0, 1)  # type: ignore[arg-type]
+        with self.assertRaises(ValueError):
+            self.client.distance("spot", "v:0", {"position": [math.nan, 0, 0]})
+
+    def test_unreachable_and_admin(self) -> None:
+        c = self.client
+        self.check(Reason.UNAUTHORIZED, -32040, lambda: c.admin_reload(token="wrong"))
+        anonymous = daemon().client()
+        with anonymous:
+            self.check(Reason.UNAUTHORIZED, -32040, lambda: anonymous.admin_reload())
+        self.check(Reason.MESH_EXISTS, -32004, lambda: c.admin_register("spot", "meshes/spot.obj"))
+        self.check(Reason.PATH_NOT_ALLOWED, -32602, lambda: c.admin_register("x", "../etc/passwd"))
+        self.check(Reason.NOT_FOUND, -32006, lambda: c.admin_register("x", "meshes/missing.obj"))
+
+        summary = c.admin_register(
+            "two", "meshes/two_components.obj", graph_file="two.geoprox", build={"samples": 8}
+        )
+        self.assertEqual(summary["mesh"], "two")
+        self.assertIn(summary["state"], ("building", "ready"))
+        try:
+            (entry,) = c.wait_ready("two", timeout=120)
+            self.assertEqual(entry["vertices"], 8)
+            self.assertTrue(c.mesh_info("two")["graph_file"].endswith("two.geoprox"))
+            self.check(Reason.UNREACHABLE, -32010, lambda: c.distance("two", "v:0", "v:5"))
+            self.check(Reason.UNREACHABLE, -32010, lambda: c.path("two", "v:0", "v:5"))
+            matrix = c.matrix("two", ["v:0", "v:4"], ["v:1", "v:5"])
+            self.assertEqual(matrix["unreachable"], 2)
+            self.assertIsNone(matrix["distances"][0][1])
+            self.assertIsNone(matrix["distances"][1][0])
+            self.assertAlmostEqual(matrix["distances"][0][0], 1.0, places=9)
+
+            old_version = entry["mesh_version"]
+            rebuilt = c.admin_rebuild("two", build={"samples": 4})
+            self.assertEqual(rebuilt["mesh"], "two")
+            (entry,) = c.wait_ready("two", timeout=120)
+            self.assertEqual(entry["samples"], 4)
+            self.assertNotEqual(entry["mesh_version"], old_version)
+
+            reload = c.admin_reload("two")
+            self.assertEqual([m["mesh"] for m in reload["meshes"]], ["two"])
+            self.assertIsNone(reload["meshes"][0]["error"])
+        finally:
+            self.assertEqual(c.admin_unregister("two"), {"mesh": "two", "unregistered": True})
+        self.check(Reason.UNKNOWN_MESH, -32001, lambda: c.distance("two", "v:0", "v:1"))
+
+
+class PipelineTest(LiveTestCase):
+    def test_hundred_requests_pipelined(self) -> None:
+        with self.client.pipeline() as pipe:
+            pending = [pipe.distance("spot", "v:0", f"v:{i}") for i in range(100)]
+            self.assertEqual(len(pipe), 100)
+            self.assertFalse(pending[0].done())
+        self.assertTrue(all(p.done() for p in pending))
+        for i, p in enumerate(pending):
+            result = p.result()
+            self.assertEqual(result["target"], {"vertex": i})
+            self.assertEqual(
+                result["distance"], self.client.distance("spot", "v:0", f"v:{i}")["distance"]
+            )
+
+    def test_errors_fail_alone(self) -> None:
+        pipe = self.client.pipeline()
+        good = pipe.health()
+        bad = pipe.distance("nope", "v:0", "v:1")
+        big = pipe.call("server.health", {"pad": "x" * (2 << 20)})
+        field = pipe.field("spot", "v:0", encoding="f32le-base64")
+        outcomes = pipe.execute()
+        self.assertEqual(len(outcomes), 4)
+        self.assertTrue(good.result()["ready"])
+        self.assertIsNone(good.exception())
+        self.assertReason(bad.exception(), Reason.UNKNOWN_MESH, -32001)
+        with self.assertRaises(ServerError):
+            bad.result()
+        self.assertReason(big.exception(), Reason.TOO_LARGE, -32020)  # null id, matched by size
+        self.assertEqual(len(field.result()["distances"]), SPOT_VERTICES)
+        self.assertIs(outcomes[1], bad.exception())
+        self.assertEqual(len(pipe), 0)  # the pipeline can be used again
+        again = pipe.mesh_info("spot")
+        pipe.execute()
+        self.assertEqual(again.result()["mesh"], "spot")
+
+    def test_call_many(self) -> None:
+        r = geoprox.request
+        results = self.client.call_many([r.distance("spot", "v:0", "v:1"), r.health()])
+        self.assertEqual(results[0]["target"], {"vertex": 1})
+        with self.assertRaises(ServerError):
+            self.client.call_many([r.health(), r.mesh_info("nope")])
+        mixed = self.client.call_many([r.health(), r.mesh_info("nope")], return_exceptions=True)
+        self.assertTrue(mixed[0]["ready"])
+        self.assertIsInstance(mixed[1], ServerError)
+
+    def test_result_before_execute(self) -> None:
+        pending = self.client.pipeline().health()
+        with self.assertRaises(RuntimeError):
+            pending.result()
+
+    def test_replies_out_of_order_and_sent_before_read(self) -> None:
+        # The fake server answers only once it has read all 100 requests, in reverse order:
+        # a client that waited for each reply before sending the next would time out.
+        def handle(connection: socket.socket, lines: Callable[[int], list]) -> None:
+            requests = lines(100)
+            connection.sendall(
+                b"".join(reply(q["id"], {"echo": q["params"]}) for q in reversed(requests))
+            )
+            time.sleep(0.5)
+
+        with FakeServer(handle) as server, geoprox.Client(port=server.port, timeout=10) as client:
+            with client.pipeline() as pipe:
+                pending = [pipe.call("echo", {"n": i}) for i in range(100)]
+            self.assertEqual([p.result()["echo"]["n"] for p in pending], list(range(100)))
+
+
+class ConnectionTest(unittest.TestCase):
+    def test_context_manager_closes_socket(self) -> None:
+        with daemon().client() as client:
+            self.assertTrue(client.health()["ready"])
+            sock = client._sock
+            assert sock is not None
+            self.assertGreaterEqual(sock.fileno(), 0)
+        self.assertEqual(sock.fileno(), -1)
+        self.assertTrue(client.closed)
+        self.assertFalse(client.connected)
+        with self.assertRaises(GeoproxConnectionError) as caught:
+            client.health()
+        self.assertIsInstance(caught.exception, ConnectionError)
+
+    def test_connection_refused(self) -> None:
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        with self.assertRaises(GeoproxConnectionError) as caught:
+            geoprox.Client("127.0.0.1", port, timeout=5)
+        self.assertIsInstance(caught.exception, ConnectionError)
+        self.assertEqual(caught.exception.reason, Reason.CONNECTION_FAILED)
+        self.assertIsNone(caught.exception.code)
+        client = geoprox.Client("127.0.0.1", port, connect=False)
+        self.assertFalse(client.connected)
+        with self.assertRaises(GeoproxTimeoutError):
+            client.wait_ready(timeout=0.3, interval=0.05)
+
+    def test_connection_closed_mid_request(self) -> None:
+        def handle(connection: socket.socket, lines: Callable[[int], list]) -> None:
+            lines(1)  # read the request, then hang up without answering
+
+        with FakeServer(handle) as server, geoprox.Client(port=server.port, timeout=10) as client:
+            with self.assertRaises(GeoproxConnectionError) as caught:
+                client.health()
+            self.assertIsInstance(caught.exception, ConnectionError)
+            self.assertEqual(caught.exception.reason, Reason.CONNECTION_CLOSED)
+            self.assertTrue(caught.exception.retryable)
+            self.assertFalse(client.connected)
+            pipe = client.pipeline()
+            pending = [pipe.health(), pipe.health()]
+            with self.assertRaises(GeoproxConnectionError):
+                pipe.execute()
+            self.assertTrue(all(isinstance(p.exception(), GeoproxConnectionError) for p in pending))
+
+    def test_client_timeout(self) -> None:
+        def handle(connection: socket.socket, lines: Callable[[int], list]) -> None:
+            lines(1)
+            time.sleep(0.6)  # never answers in time
+
+        with FakeServer(handle) as server, geoprox.Client(port=server.port, timeout=0.2) as client:
+            started = time.monotonic()
+            with self.assertRaises(GeoproxTimeoutError) as caught:
+                client.health()
+            self.assertLess(time.monotonic() - started, 0.55)
+            self.assertIsInstance(caught.exception, TimeoutError)
+            self.assertEqual(caught.exception.reason, Reason.TIMEOUT)
+
+    def test_late_reply_is_dropped(self) -> None:
+        with daemon().client() as client:
+            sock = client._sock
+            with self.assertRaises(GeoproxTimeoutError):
+                client.call(
+                    "geodesic.distance",
+                    {"mesh": "spot", "source": "v:0", "target": "v:1500", "exact": True},
+                    timeout=0.001,
+                )
+            # Same connection; the late reply is recognised by its id and dropped.
+            for _ in range(3):
+                self.assertTrue(client.health()["ready"])
+            self.assertEqual(client.distance("spot", "v:0", "v:1")["target"], {"vertex": 1})
+            self.assertIs(client._sock, sock)
+
+    def test_retries(self) -> None:
+        def handle(connection: socket.socket, lines: Callable[[int], list]) -> None:
+            while True:
+                (first,) = lines(1)
+                overloaded = {
+                    "code": -32030,
+                    "message": "compute queue full",
+                    "data": {"reason": "Overloaded", "retryable": True, "retry_after_ms": 20},
+                }
+                connection.sendall(
+                    json.dumps({"jsonrpc": "2.0", "id": first["id"], "error": overloaded}).encode()
+                    + b"\n"
+                )
+                (second,) = lines(1)
+                connection.sendall(reply(second["id"], {"ok": True}))
+
+        with FakeServer(handle) as server:
+            with geoprox.Client(port=server.port, timeout=5) as client:
+                with self.assertRaises(ServerError) as caught:
+                    client.health()
+                self.assertEqual(caught.exception.reason, Reason.OVERLOADED)
+                self.assertTrue(caught.exception.retryable)
+                self.assertEqual(caught.exception.retry_after_ms, 20)
+                self.assertEqual(client.health(), {"ok": True})
+            with geoprox.Client(port=server.port, timeout=5, retries=2) as client:
+                started = time.monotonic()
+                self.assertEqual(client.health(), {"ok": True})
+                self.assertGreaterEqual(time.monotonic() - started, 0.02)
+
+    def test_daemon_closes_idle_connection_then_dies(self) -> None:
+        # A second daemon on the same data: the graph of spot is already built, so it loads.
+        other = Daemon(
+            os.environ["GEOPROXD"], daemon().root, "idle", limits={"read_timeout_ms": 200}
+        )
+        try:
+            with other.client(timeout=30) as client:
+                client.wait_ready("spot", timeout=120)
+                first = client._sock
+                time.sleep(0.6)  # the daemon closes the idle connection
+                self.assertTrue(client.health()["ready"])  # on a new connection, transparently
+                self.assertIsNot(client._sock, first)
+                other.process.kill()
+                other.process.wait()
+                with self.assertRaises(GeoproxConnectionError) as caught:
+                    client.health()
+                self.assertIsInstance(caught.exception, ConnectionError)
+        finally:
+            other.stop()
+
+
+if __name__ == "__main__":
+    unittest.main()
