@@ -290,44 +290,66 @@ void seed_side(QueryScratch::Impl& s, int side, std::span<const std::pair<std::u
 
 }  // namespace
 
-double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& from_s,
-                                           const Links& from_t, double best,
-                                           std::uint32_t& meet, std::uint32_t& settled) const {
-  auto check_meeting = [&](std::uint32_t i) {
+namespace {
+
+/// The best s-t total found so far and the sample where it was found.
+struct Meeting {
+  double best;
+  std::uint32_t& meet;
+  void check(const QueryScratch::Impl& s, std::uint32_t i) {
     const double total = s.label[0][i] + s.label[1][i];
     if (total < best) {
       best = total;
       meet = i;
     }
-  };
-  seed_side(s, 0, from_s.samples, true, check_meeting);
-  seed_side(s, 1, from_t.samples, true, check_meeting);
+  }
+};
+
+/// Dijkstra's step for a popped entry of side top.side: false for a stale entry; otherwise
+/// settles the sample and relaxes its graph edges into `heap`, reporting each improved sample.
+template <class OnLabel>
+bool settle_and_relax(QueryScratch::Impl& s, const ProximityGraphView& graph, const HeapEntry& top,
+                      std::vector<HeapEntry>& heap, OnLabel&& on_label) {
+  const auto side = top.side;
+  if (top.key > s.label[side][top.node] || s.is_settled(static_cast<int>(side), top.node)) {
+    return false;
+  }
+  s.settled_stamp[side][top.node] = s.generation;
+  for (std::uint32_t e = graph.edge_offsets[top.node]; e < graph.edge_offsets[top.node + 1]; ++e) {
+    const std::uint32_t j = graph.edge_target[e];
+    const double d = top.key + graph.edge_distance[e];
+    s.touch(j);
+    if (d < s.label[side][j]) {
+      s.label[side][j] = d;
+      s.parent[side][j] = static_cast<std::int32_t>(top.node);
+      s.parent_edge[side][j] = e;
+      heap_push(heap, {d, j, side});
+      on_label(j);
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& from_s,
+                                           const Links& from_t, double best,
+                                           std::uint32_t& meet, std::uint32_t& settled) const {
+  Meeting m{best, meet};
+  auto check = [&](std::uint32_t i) { m.check(s, i); };
+  seed_side(s, 0, from_s.samples, true, check);
+  seed_side(s, 1, from_t.samples, true, check);
   while (!s.heap[0].empty() || !s.heap[1].empty()) {
     const double top0 = s.heap[0].empty() ? kInfinity : s.heap[0].front().key;
     const double top1 = s.heap[1].empty() ? kInfinity : s.heap[1].front().key;
     // No s-t path through an unsettled sample can be shorter than top0 + top1.
-    if (top0 + top1 >= best) break;
+    if (top0 + top1 >= m.best) break;
     const int side = top0 <= top1 ? 0 : 1;
     const HeapEntry top = heap_pop(s.heap[side]);
     s.poll();
-    if (top.key > s.label[side][top.node] || s.is_settled(side, top.node)) continue;
-    s.settled_stamp[side][top.node] = s.generation;
-    ++settled;
-    for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
-         ++e) {
-      const std::uint32_t j = graph_.edge_target[e];
-      const double d = top.key + graph_.edge_distance[e];
-      s.touch(j);
-      if (d < s.label[side][j]) {
-        s.label[side][j] = d;
-        s.parent[side][j] = static_cast<std::int32_t>(top.node);
-        s.parent_edge[side][j] = e;
-        heap_push(s.heap[side], {d, j, static_cast<std::uint32_t>(side)});
-        check_meeting(j);
-      }
-    }
+    if (settle_and_relax(s, graph_, top, s.heap[side], check)) ++settled;
   }
-  return best;
+  return m.best;
 }
 
 double GeodesicQuery::search_meet_in_the_middle(QueryScratch::Impl& s, const Links& from_s,
@@ -336,17 +358,12 @@ double GeodesicQuery::search_meet_in_the_middle(QueryScratch::Impl& s, const Lin
                                                 std::uint32_t& settled) const {
   // R of the augmented graph: its longest edge, links included.
   const double R = std::max({graph_.longest_edge, from_s.longest, from_t.longest});
-  auto check_meeting = [&](std::uint32_t i) {
-    const double total = s.label[0][i] + s.label[1][i];
-    if (total < best) {
-      best = total;
-      meet = i;
-    }
-  };
+  Meeting m{best, meet};
+  auto check = [&](std::uint32_t i) { m.check(s, i); };
   std::vector<HeapEntry>& heap = s.heap[0];  // one queue for both fronts, as in Algorithm 1
   for (int side = 0; side < 2; ++side) {
     const Links& links = side == 0 ? from_s : from_t;
-    seed_side(s, side, links.samples, false, check_meeting);
+    seed_side(s, side, links.samples, false, check);
     for (const auto& [i, d] : links.samples) {
       if (s.label[side][i] == d) heap_push(heap, {d, i, static_cast<std::uint32_t>(side)});
     }
@@ -355,26 +372,10 @@ double GeodesicQuery::search_meet_in_the_middle(QueryScratch::Impl& s, const Lin
     const HeapEntry top = heap_pop(heap);
     s.poll();
     // Theorem 3.1: some sample on the best path has both labels <= (best + R) / 2.
-    if (top.key > 0.5 * (best + R)) break;
-    const int side = static_cast<int>(top.side);
-    if (top.key > s.label[side][top.node] || s.is_settled(side, top.node)) continue;
-    s.settled_stamp[side][top.node] = s.generation;
-    ++settled;
-    for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
-         ++e) {
-      const std::uint32_t j = graph_.edge_target[e];
-      const double d = top.key + graph_.edge_distance[e];
-      s.touch(j);
-      if (d < s.label[side][j]) {
-        s.label[side][j] = d;
-        s.parent[side][j] = static_cast<std::int32_t>(top.node);
-        s.parent_edge[side][j] = e;
-        heap_push(heap, {d, j, top.side});
-        check_meeting(j);
-      }
-    }
+    if (top.key > 0.5 * (m.best + R)) break;
+    if (settle_and_relax(s, graph_, top, heap, check)) ++settled;
   }
-  return best;
+  return m.best;
 }
 
 double GeodesicQuery::search_dijkstra(QueryScratch::Impl& s, const Links& from_s,
@@ -382,37 +383,17 @@ double GeodesicQuery::search_dijkstra(QueryScratch::Impl& s, const Links& from_s
                                       std::uint32_t& settled) const {
   // t is one more node, reached from each of its linked samples: side 1 holds those link
   // lengths and is never propagated.
-  auto check_meeting = [&](std::uint32_t i) {
-    const double total = s.label[0][i] + s.label[1][i];
-    if (total < best) {
-      best = total;
-      meet = i;
-    }
-  };
+  Meeting m{best, meet};
+  auto check = [&](std::uint32_t i) { m.check(s, i); };
   seed_side(s, 1, from_t.samples, false, [](std::uint32_t) {});
-  seed_side(s, 0, from_s.samples, true, check_meeting);
+  seed_side(s, 0, from_s.samples, true, check);
   while (!s.heap[0].empty()) {
     const HeapEntry top = heap_pop(s.heap[0]);
     s.poll();
-    if (top.key >= best) break;  // t is settled
-    if (top.key > s.label[0][top.node] || s.is_settled(0, top.node)) continue;
-    s.settled_stamp[0][top.node] = s.generation;
-    ++settled;
-    for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
-         ++e) {
-      const std::uint32_t j = graph_.edge_target[e];
-      const double d = top.key + graph_.edge_distance[e];
-      s.touch(j);
-      if (d < s.label[0][j]) {
-        s.label[0][j] = d;
-        s.parent[0][j] = static_cast<std::int32_t>(top.node);
-        s.parent_edge[0][j] = e;
-        heap_push(s.heap[0], {d, j, 0});
-        check_meeting(j);
-      }
-    }
+    if (top.key >= m.best) break;  // t is settled
+    if (settle_and_relax(s, graph_, top, s.heap[0], check)) ++settled;
   }
-  return best;
+  return m.best;
 }
 
 // ---------------------------------------------------------------------------------------------
