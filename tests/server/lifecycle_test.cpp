@@ -2,7 +2,10 @@
 // corrupted graph, --check), background builds (a mesh that fails does not take the others
 // down), admin methods (token, path confinement, register / rebuild / unregister / reload) and
 // the config file.
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 
 #include "server/service.h"
@@ -205,6 +208,46 @@ TEST(Daemon, SighupReloadsAGoodGraphAndKeepsTheOldOneOnACorruptedOne) {
   EXPECT_EQ(after["mesh_version"], v2);
   daemon.signal(SIGTERM);
   EXPECT_EQ(daemon.wait(30s), 0);
+}
+
+TEST(Daemon, ProbeReportsReadinessForContainerHealthChecks) {
+  TestData data;
+  // Admin port 0 turns it off, so take a free one from the kernel (released just before use).
+  std::uint16_t admin_port = 0;
+  {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in any{};
+    any.sin_family = AF_INET;
+    any.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t length = sizeof any;
+    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&any), sizeof any), 0);
+    ASSERT_EQ(::getsockname(fd, reinterpret_cast<sockaddr*>(&any), &length), 0);
+    admin_port = ntohs(any.sin_port);
+    ::close(fd);
+  }
+  const fs::path config = write_config(data, {{"admin_port", admin_port}});
+  const fs::path log = data.dir.path() / "daemon.log";
+  const fs::path port_file = data.dir.path() / "ports.json";
+  Daemon daemon({"--config", config.string(), "--port-file", port_file.string()}, log);
+  wait_for_port(port_file, log);
+  ASSERT_EQ(json::parse(read_file(port_file))["admin_port"].get<std::uint16_t>(), admin_port);
+  const fs::path probe_log = data.dir.path() / "probe.log";
+  int code = -1;
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    Daemon probe({"--probe", "--admin-port", std::to_string(admin_port)}, probe_log);
+    code = probe.wait(10s);
+    if (code == 0) break;
+    EXPECT_EQ(code, 1) << read_file(probe_log);  // not ready yet (spot's graph is building)
+    std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_EQ(code, 0) << "never ready: " << read_file(log);
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.wait(30s), 0);
+  // Nothing listening any more: not ready.
+  Daemon probe({"--probe", "--admin-port", std::to_string(admin_port)}, probe_log);
+  EXPECT_EQ(probe.wait(10s), 1);
+  EXPECT_NE(read_file(probe_log).find("not ready"), std::string::npos) << read_file(probe_log);
 }
 
 TEST(Daemon, CheckValidatesConfigMeshesAndGraphs) {
