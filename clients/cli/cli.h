@@ -67,6 +67,9 @@ void append_number(std::string& out, double value);
 /// Adds the query commands on a built graph (`distance`, `field`, `eval`).
 void add_query_commands(CLI::App& app, std::vector<Command>& commands);
 
+/// Adds `remote`, the client of a geoproxd daemon (clients/cli/client_commands.cpp).
+void add_client_commands(CLI::App& app, std::vector<Command>& commands);
+
 /// Prints `geoprox: <label>: <message>` as exactly one line on standard error.
 void print_diagnostic(const std::string& label, const std::string& message);
 

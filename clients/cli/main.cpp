@@ -18,6 +18,9 @@ std::string exit_code_footer() {
          "  2  input or output error: missing or unreadable file, bad mesh, bad point\n"
          "     syntax, id out of range, output not writable\n"
          "  3  internal error: a bug in geoprox\n"
+         "  4  remote: cannot connect to the daemon, or the connection was lost\n"
+         "  5  remote: timeout (no connection or no reply within --timeout-ms)\n"
+         "  6  remote: the daemon answered with an error (its reason in brackets)\n"
          "Errors are reported as one line on standard error: 'geoprox: error: ...'.";
 }
 
@@ -40,6 +43,7 @@ int main(int argc, char** argv) {
   add_offline_commands(app, commands);
   add_graph_commands(app, commands);
   add_query_commands(app, commands);
+  add_client_commands(app, commands);
 
   // CLI11 would report an unknown command as "A subcommand is required": name it instead.
   if (argc > 1 && argv[1][0] != '-') {

@@ -1,0 +1,182 @@
+#!/usr/bin/env bash
+# End-to-end test of `geoprox remote ...` against a real geoproxd serving data/meshes/spot.obj:
+# answers equal to the offline commands on the same graph file, --json/--csv output, and the
+# error lines and exit codes (4 connection, 6 server error).
+# Usage: bash remote_test.sh GEOPROX_BINARY REPO_ROOT
+set -euo pipefail
+geoprox=${1:?usage: remote_test.sh GEOPROX_BINARY REPO_ROOT}
+root=${2:?usage: remote_test.sh GEOPROX_BINARY REPO_ROOT}
+geoproxd="$(cd "$(dirname "$geoprox")/../../server" && pwd)/geoproxd"
+tmp=$(mktemp -d)
+daemon_pid=
+mute_pid=
+cleanup() {
+  [ -n "$mute_pid" ] && kill "$mute_pid" 2>/dev/null
+  if [ -n "$daemon_pid" ] && kill -0 "$daemon_pid" 2>/dev/null; then
+    kill -TERM "$daemon_pid" 2>/dev/null || true
+    wait "$daemon_pid" 2>/dev/null || true
+  fi
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+checks=0
+fail() {
+  echo "FAIL (remote_test.sh): $*" >&2
+  [ -f "$tmp/daemon.log" ] && tail -5 "$tmp/daemon.log" >&2
+  exit 1
+}
+pass() { checks=$((checks + 1)); }
+
+spot="$root/data/meshes/spot.obj"
+[ -f "$spot" ] || fail "sample mesh $spot is missing"
+[ -x "$geoproxd" ] || fail "daemon $geoproxd is missing (build the geoproxd target)"
+
+# A small graph, used by the offline commands and served by the daemon.
+mkdir -p "$tmp/graphs"
+"$geoprox" build "$spot" -o "$tmp/graphs/spot.geoprox" --samples 200 --neighbors 12 -q \
+  >/dev/null 2>"$tmp/err" || fail "build failed: $(cat "$tmp/err")"
+cat >"$tmp/config.json" <<JSON
+{
+  "bind": "127.0.0.1",
+  "data_dir": "$root/data",
+  "graph_dir": "$tmp/graphs",
+  "compute_threads": 2,
+  "log_level": "warn",
+  "meshes": [
+    {"id": "spot", "mesh": "meshes/spot.obj", "graph": "$tmp/graphs/spot.geoprox",
+     "samples": 200, "neighbors": 12}
+  ]
+}
+JSON
+"$geoproxd" --config "$tmp/config.json" --port 0 --admin-port 0 --port-file "$tmp/port.json" \
+  >"$tmp/daemon.log" 2>&1 &
+daemon_pid=$!
+for _ in $(seq 100); do
+  [ -s "$tmp/port.json" ] && break
+  kill -0 "$daemon_pid" 2>/dev/null || fail "geoproxd exited at start"
+  sleep 0.1
+done
+[ -s "$tmp/port.json" ] || fail "geoproxd wrote no port file"
+port=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["port"])' "$tmp/port.json")
+export GEOPROX_HOST=127.0.0.1 GEOPROX_PORT=$port
+for _ in $(seq 100); do
+  "$geoprox" remote meshes >"$tmp/meshes" 2>/dev/null && grep -q '^spot  *ready' "$tmp/meshes" && break
+  sleep 0.1
+done
+grep -q '^spot  *ready  *100% *5856  *200$' "$tmp/meshes" || fail "spot not ready: $(cat "$tmp/meshes")"; pass
+head -1 "$tmp/meshes" | grep -q '^id  *state  *progress  *faces  *samples$' || fail "meshes header"; pass
+
+# distance: equal to the offline answer on the same graph.
+target=f:100:0.2:0.3:0.5
+"$geoprox" remote distance spot v:0 "$target" >"$tmp/remote" 2>"$tmp/err" ||
+  fail "remote distance: $(cat "$tmp/err")"
+echo "v:0 $target" | "$geoprox" distance "$spot" --graph "$tmp/graphs/spot.geoprox" --pairs - \
+  >"$tmp/offline" 2>/dev/null || fail "offline distance failed"
+sed -n 2p "$tmp/remote" | grep -qE '^exact (yes|no)$' || fail "no 'exact yes|no': $(cat "$tmp/remote")"; pass
+python3 - "$tmp/remote" "$tmp/offline" <<'PY' || fail "remote and offline distances differ"
+import sys
+remote = open(sys.argv[1]).read().split("\n")[0].split()
+offline = float(open(sys.argv[2]).read().split()[0])
+assert remote[0] == "distance", remote
+assert abs(float(remote[1]) - offline) <= 1e-12, (remote, offline)
+PY
+pass
+# Host and port given as options instead of the environment.
+env -u GEOPROX_HOST -u GEOPROX_PORT "$geoprox" remote distance spot v:0 "$target" \
+  --host 127.0.0.1 --port "$port" --timeout-ms 5000 | cmp -s - "$tmp/remote" ||
+  fail "--host/--port gave another answer"; pass
+
+# path: starts with the distance, ends at the target.
+"$geoprox" remote path spot v:0 "$target" >"$tmp/path" 2>"$tmp/err" ||
+  fail "remote path: $(cat "$tmp/err")"
+head -1 "$tmp/path" | grep -q '^distance ' || fail "path lacks its distance"; pass
+[ "$(wc -l <"$tmp/path")" -ge 3 ] || fail "path has too few points: $(cat "$tmp/path")"; pass
+python3 - "$tmp/path" <<'PY' || fail "path does not end at the target: $(tail -1 "$tmp/path")"
+import sys
+last = open(sys.argv[1]).read().split("\n")[-2].split()
+face, *bary = last[0][2:].split(":")
+assert face == "100", last
+assert all(abs(float(b) - e) < 1e-9 for b, e in zip(bary, (0.2, 0.3, 0.5))), last
+PY
+pass
+
+# field: one line per vertex; the source vertex at 0.
+"$geoprox" remote field spot v:0 --csv >"$tmp/field" 2>"$tmp/err" || fail "remote field: $(cat "$tmp/err")"
+[ "$(wc -l <"$tmp/field")" -eq 2930 ] || fail "field --csv: $(wc -l <"$tmp/field") lines"; pass
+head -1 "$tmp/field" | grep -qx '0,0' || fail "field: vertex 0 is not at 0: $(head -1 "$tmp/field")"; pass
+"$geoprox" remote field spot v:0 v:5 --cutoff 0.1 >"$tmp/field2" 2>"$tmp/err" ||
+  fail "remote field with a cutoff: $(cat "$tmp/err")"
+[ "$(wc -l <"$tmp/field2")" -eq 2930 ] || fail "field: not 2930 lines"; pass
+grep -qx inf "$tmp/field2" || fail "field with a cutoff reaches everything"; pass
+
+# matrix: 2 rows of 3.
+"$geoprox" remote matrix spot --sources v:0 v:1 --targets v:2 v:3 "$target" >"$tmp/matrix" 2>"$tmp/err" ||
+  fail "remote matrix: $(cat "$tmp/err")"
+[ "$(wc -l <"$tmp/matrix")" -eq 2 ] || fail "matrix rows: $(cat "$tmp/matrix")"; pass
+[ "$(awk '{print NF}' "$tmp/matrix" | sort -u)" = 3 ] || fail "matrix columns: $(cat "$tmp/matrix")"; pass
+"$geoprox" remote matrix spot --sources v:0 v:1 --targets v:2 v:3 "$target" --csv | head -1 |
+  grep -q '^[0-9.e+-]*,[0-9.e+-]*,[0-9.e+-]*$' || fail "matrix --csv"; pass
+
+# health and info.
+"$geoprox" remote health | grep -qx 'status ok' || fail "health is not ok"; pass
+"$geoprox" remote info | grep -q '^protocol_version 1$' || fail "info lacks protocol_version"; pass
+"$geoprox" remote info spot | grep -q '^vertices 2930$' || fail "info spot lacks vertices"; pass
+
+# --json: the raw result, valid JSON.
+for command in "distance spot v:0 $target" "path spot v:0 $target" "field spot v:0" \
+  "matrix spot --sources v:0 --targets v:1 v:2" meshes health info "info spot"; do
+  # shellcheck disable=SC2086
+  "$geoprox" remote $command --json >"$tmp/json" 2>"$tmp/err" || fail "$command --json: $(cat "$tmp/err")"
+  python3 -c 'import json,sys; json.load(sys.stdin)' <"$tmp/json" || fail "$command --json is not JSON"
+  pass
+done
+python3 -c 'import json,sys; r=json.load(sys.stdin); assert r["mesh"]=="spot" and r["distance"]>0' \
+  < <("$geoprox" remote distance spot v:0 "$target" --json) || fail "distance --json content"; pass
+
+# Errors: one line, the reason in brackets, distinct exit codes.
+expect_error() {  # EXIT_CODE PATTERN ARGS...
+  local code=$1 pattern=$2; shift 2
+  set +e
+  "$geoprox" remote "$@" >"$tmp/out" 2>"$tmp/err"; local rc=$?
+  set -e
+  [ "$rc" -eq "$code" ] || fail "remote $*: exit $rc (expected $code): $(cat "$tmp/err")"
+  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "remote $*: not one line on stderr: $(cat "$tmp/err")"
+  grep -q '^geoprox: error: ' "$tmp/err" || fail "remote $*: no 'geoprox: error:' prefix"
+  grep -qF -- "$pattern" "$tmp/err" || fail "remote $*: expected $pattern, got: $(cat "$tmp/err")"
+  [ ! -s "$tmp/out" ] || fail "remote $*: wrote to stdout: $(cat "$tmp/out")"
+  pass
+}
+expect_error 6 '[UnknownMesh]' distance nope v:0 v:1
+expect_error 6 '[FaceOutOfRange]' distance spot v:0 f:99999:1:0:0
+expect_error 6 '[BadPoint]' path spot v:0 zz
+expect_error 6 '[UnknownMesh]' info nope
+# A closed port: take a free port from the kernel and close it again.
+closed=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()')
+expect_error 4 '[ConnectionFailed]' meshes --port "$closed"
+# A listener that never answers: the reply times out (exit 5).
+python3 -c 'import socket,sys,time
+s=socket.socket(); s.bind(("127.0.0.1",0)); s.listen(8)
+open(sys.argv[1],"w").write(str(s.getsockname()[1])); time.sleep(20)' "$tmp/mute_port" &
+mute_pid=$!
+for _ in $(seq 50); do [ -s "$tmp/mute_port" ] && break; sleep 0.1; done
+expect_error 5 '[Timeout]' health --port "$(cat "$tmp/mute_port")" --timeout-ms 300
+kill "$mute_pid" 2>/dev/null || true
+wait "$mute_pid" 2>/dev/null || true
+mute_pid=
+# Usage errors stay exit 1.
+set +e
+"$geoprox" remote distance spot v:0 >/dev/null 2>&1; rc=$?
+set -e
+[ "$rc" -eq 1 ] || fail "missing TARGET: exit $rc (expected 1)"; pass
+"$geoprox" remote --help | grep -q '6  remote: the daemon answered with an error' ||
+  fail "--help lacks the exit codes"; pass
+
+# SIGTERM: the daemon exits cleanly.
+kill -TERM "$daemon_pid"
+for _ in $(seq 100); do kill -0 "$daemon_pid" 2>/dev/null || break; sleep 0.1; done
+kill -0 "$daemon_pid" 2>/dev/null && fail "geoproxd still running 10 s after SIGTERM"
+wait "$daemon_pid" || fail "geoproxd exited with $? after SIGTERM"
+daemon_pid=
+pass
+
+echo "remote_test.sh: $checks checks passed"
