@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_support.h"
 #include "core/closest_point.h"
 #include "core/mesh.h"
 #include "core/mesh_io.h"
@@ -29,28 +30,7 @@
 namespace {
 
 using namespace geoprox;
-using Clock = std::chrono::steady_clock;
-
-/// splitmix64: the same sequence on every platform.
-struct Rng {
-  std::uint64_t state;
-  std::uint64_t next() {
-    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
-  double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-  std::uint32_t below(std::uint32_t n) { return static_cast<std::uint32_t>(next() % n); }
-};
-
-double percentile(std::vector<double> v, double fraction) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto k = static_cast<std::size_t>(fraction * static_cast<double>(v.size() - 1) + 0.5);
-  return v[k];
-}
+using namespace geoprox::bench;
 
 double us_between(Clock::time_point start, Clock::time_point stop) {
   return std::chrono::duration<double, std::micro>(stop - start).count();
@@ -61,11 +41,6 @@ double thread_cpu_us() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return 1e6 * static_cast<double>(ts.tv_sec) + 1e-3 * static_cast<double>(ts.tv_nsec);
-}
-
-std::string base_name(const std::string& path) {
-  const std::size_t slash = path.find_last_of('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
 struct Settings {

@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_support.h"
 #include "core/errors.h"
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
@@ -46,23 +47,11 @@
 namespace {
 
 using namespace geoprox;
-using Clock = std::chrono::steady_clock;
+using namespace geoprox::bench;
 namespace fs = std::filesystem;
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-std::string base_name(const std::string& path) {
-  const std::size_t slash = path.find_last_of('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
 double process_cpu_seconds() {
