@@ -113,6 +113,7 @@ struct QueryScratch::Impl {
   GeodesicTrace trace, trace_back;
   std::vector<PathPoint> piece;
   const QueryInterrupt* interrupt = nullptr;
+  Vec3 source_position, target_position;  ///< of the current point-to-point query
   std::uint32_t pops = 0;  ///< graph-search pops, for polling the interrupt
 
   void poll() {
@@ -149,6 +150,17 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
     sample_points_.push_back(SurfacePoint::vertex(graph.sample_vertex[i]));
   }
   bbox_diagonal_ = bounding_box_diagonal(mesh);
+  sample_positions_.reserve(graph.num_samples);
+  for (std::uint32_t i = 0; i < graph.num_samples; ++i) {
+    sample_positions_.push_back(mesh.position(graph.sample_vertex[i]));
+  }
+  // Straight-line distances bound geodesic ones from below only when the intrinsic lengths are
+  // the embedding's (not under another metric).
+  euclidean_lower_bound_ = true;
+  for (std::uint32_t e = 0; e < mesh.num_edges() && euclidean_lower_bound_; ++e) {
+    const double chord = norm(mesh.position(mesh.edge_origin(e)) - mesh.position(mesh.edge_target(e)));
+    euclidean_lower_bound_ = std::abs(geometry.edge_length(e) - chord) <= 1e-12 * chord;
+  }
 }
 
 GeodesicQuery::~GeodesicQuery() = default;
@@ -273,19 +285,26 @@ double GeodesicQuery::search(QueryScratch::Impl& s, const Links& from_s, const L
 namespace {
 
 // Seeds one side's labels from a query point's links and records meetings with the other side.
-template <class Meet>
+template <class Meet, class Potential>
 void seed_side(QueryScratch::Impl& s, int side, std::span<const std::pair<std::uint32_t, double>>
                                                     links,
-               bool push, Meet&& on_label) {
+               bool push, Meet&& on_label, Potential&& potential) {
   for (const auto& [i, d] : links) {
     s.touch(i);
     if (d < s.label[side][i]) {
       s.label[side][i] = d;
       s.parent[side][i] = kFromQueryPoint;
-      if (push) heap_push(s.heap[side], {d, i, static_cast<std::uint32_t>(side)});
+      if (push) heap_push(s.heap[side], {d + potential(i), i, static_cast<std::uint32_t>(side)});
       on_label(i);
     }
   }
+}
+
+template <class Meet>
+void seed_side(QueryScratch::Impl& s, int side, std::span<const std::pair<std::uint32_t, double>>
+                                                    links,
+               bool push, Meet&& on_label) {
+  seed_side(s, side, links, push, on_label, [](std::uint32_t) { return 0.0; });
 }
 
 }  // namespace
@@ -307,27 +326,35 @@ struct Meeting {
 
 /// Dijkstra's step for a popped entry of side top.side: false for a stale entry; otherwise
 /// settles the sample and relaxes its graph edges into `heap`, reporting each improved sample.
-template <class OnLabel>
+template <class OnLabel, class Potential>
 bool settle_and_relax(QueryScratch::Impl& s, const ProximityGraphView& graph, const HeapEntry& top,
-                      std::vector<HeapEntry>& heap, OnLabel&& on_label) {
+                      std::vector<HeapEntry>& heap, OnLabel&& on_label, Potential&& potential) {
   const auto side = top.side;
-  if (top.key > s.label[side][top.node] || s.is_settled(static_cast<int>(side), top.node)) {
+  if (top.key > s.label[side][top.node] + potential(top.node) ||
+      s.is_settled(static_cast<int>(side), top.node)) {
     return false;
   }
   s.settled_stamp[side][top.node] = s.generation;
+  const double here = s.label[side][top.node];  // the key may include a potential
   for (std::uint32_t e = graph.edge_offsets[top.node]; e < graph.edge_offsets[top.node + 1]; ++e) {
     const std::uint32_t j = graph.edge_target[e];
-    const double d = top.key + graph.edge_distance[e];
+    const double d = here + graph.edge_distance[e];
     s.touch(j);
     if (d < s.label[side][j]) {
       s.label[side][j] = d;
       s.parent[side][j] = static_cast<std::int32_t>(top.node);
       s.parent_edge[side][j] = e;
-      heap_push(heap, {d, j, side});
+      heap_push(heap, {d + potential(j), j, side});
       on_label(j);
     }
   }
   return true;
+}
+
+template <class OnLabel>
+bool settle_and_relax(QueryScratch::Impl& s, const ProximityGraphView& graph, const HeapEntry& top,
+                      std::vector<HeapEntry>& heap, OnLabel&& on_label) {
+  return settle_and_relax(s, graph, top, heap, on_label, [](std::uint32_t) { return 0.0; });
 }
 
 }  // namespace
@@ -337,17 +364,33 @@ double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& f
                                            std::uint32_t& meet, std::uint32_t& settled) const {
   Meeting m{best, meet};
   auto check = [&](std::uint32_t i) { m.check(s, i); };
-  seed_side(s, 0, from_s.samples, true, check);
-  seed_side(s, 1, from_t.samples, true, check);
+  // Goal direction (bidirectional A* with average potentials, Ikeda et al. 1994): when the
+  // lengths are the embedding's, the straight-line distance is a lower bound of every graph
+  // edge, so p(v) = (|v t| - |v s|) / 2 keeps every reduced edge length non-negative for the
+  // forward front (keys label + p) and the backward one (keys label - p), and the usual stop
+  // rule (top keys summing to the best meeting) stays exact. Otherwise p = 0: plain Dijkstra.
+  const bool directed = euclidean_lower_bound_;
+  auto potential = [&](std::uint32_t i) {
+    if (!directed) return 0.0;
+    const Vec3& x = sample_positions_[i];
+    return 0.5 * (norm(x - s.target_position) - norm(x - s.source_position));
+  };
+  auto forward = [&](std::uint32_t i) { return potential(i); };
+  auto backward = [&](std::uint32_t i) { return -potential(i); };
+  seed_side(s, 0, from_s.samples, true, check, forward);
+  seed_side(s, 1, from_t.samples, true, check, backward);
   while (!s.heap[0].empty() || !s.heap[1].empty()) {
     const double top0 = s.heap[0].empty() ? kInfinity : s.heap[0].front().key;
     const double top1 = s.heap[1].empty() ? kInfinity : s.heap[1].front().key;
-    // No s-t path through an unsettled sample can be shorter than top0 + top1.
+    // No s-t path through an unsettled sample can be shorter than top0 + top1 (the potentials
+    // cancel along any path).
     if (top0 + top1 >= m.best) break;
     const int side = top0 <= top1 ? 0 : 1;
     const HeapEntry top = heap_pop(s.heap[side]);
     s.poll();
-    if (settle_and_relax(s, graph_, top, s.heap[side], check)) ++settled;
+    const bool fresh = side == 0 ? settle_and_relax(s, graph_, top, s.heap[0], check, forward)
+                                 : settle_and_relax(s, graph_, top, s.heap[1], check, backward);
+    if (fresh) ++settled;
   }
   return m.best;
 }
@@ -447,6 +490,8 @@ DistanceResult GeodesicQuery::distance(const SurfacePoint& s, const SurfacePoint
     return result;
   }
   std::uint32_t meet = 0;
+  w.source_position = s.position(*mesh_);
+  w.target_position = t.position(*mesh_);
   result.distance = search(w, w.links_s, w.links_t, kInfinity, meet, result.samples_settled);
   if (result.distance == kInfinity) throw unreachable(s, t);
   return result;
@@ -593,6 +638,8 @@ PathResult GeodesicQuery::path(const SurfacePoint& s, const SurfacePoint& t,
   }
   std::uint32_t meet = UINT32_MAX;
   std::uint32_t settled = 0;
+  w.source_position = s.position(*mesh_);
+  w.target_position = t.position(*mesh_);
   result.distance = search(w, w.links_s, w.links_t, kInfinity, meet, settled);
   if (result.distance == kInfinity || meet == UINT32_MAX) throw unreachable(s, t);
   // Sample sequence: s-side parents back from the meeting sample, then t-side parents.

@@ -39,8 +39,9 @@ struct QueryLinks;  // geodesic_query.cpp: one query point's links
 
 /// How the augmented graph is searched between s and t (all three give the same distance).
 enum class GraphSearch : std::uint8_t {
-  /// Two fronts, stopped once the smallest labels of both sum to the best meeting distance
-  /// (classic bidirectional Dijkstra). Settles the fewest samples: the default.
+  /// Two fronts, stopped once the smallest keys of both sum to the best meeting distance
+  /// (classic bidirectional Dijkstra), directed towards each other by straight-line potentials
+  /// when the edge lengths are the embedding's. Settles the fewest samples: the default.
   Bidirectional = 0,
   /// The paper's Algorithm 1: one queue for both fronts, stopped once a popped label reaches
   /// (best + R) / 2, R being the longest edge of the augmented graph.
@@ -199,6 +200,8 @@ class GeodesicQuery {
   double link_radius_ = 0;
   std::vector<std::int32_t> sample_of_vertex_;  ///< sample index per vertex, or -1
   std::vector<SurfacePoint> sample_points_;
+  std::vector<Vec3> sample_positions_;
+  bool euclidean_lower_bound_ = false;  ///< edge lengths are the positions' (see search)
   double bbox_diagonal_ = 0;
   mutable std::once_flag snap_index_once_;
   mutable std::unique_ptr<ClosestPointIndex> snap_index_;
