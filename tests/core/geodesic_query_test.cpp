@@ -61,6 +61,8 @@ namespace {
 namespace fs = std::filesystem;
 using namespace test_meshes;
 using test_support::fmt;
+using test_support::shipped_mesh;
+using test_support::spot;
 
 constexpr double kTight = 1e-12;       // the same quantity computed twice
 constexpr double kBelowExact = 1e-9;   // graph answers never below the exact distance
@@ -135,19 +137,6 @@ std::string expect_throw_reason(const std::function<void()>& f, const std::strin
 
 // ---------------------------------------------------------------------------------------------
 // Meshes, graphs, query objects
-
-TestMesh shipped_mesh(const std::string& name) {
-  const std::string path = std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
-  TestMesh out;
-  out.mesh = std::make_unique<TriangleMesh>(load_mesh(path));
-  out.geometry = std::make_unique<IntrinsicGeometry>(*out.mesh);
-  return out;
-}
-
-const TestMesh& spot() {
-  static const TestMesh m = shipped_mesh("spot.obj");
-  return m;
-}
 
 /// Jittered flat 32 x 32 grid on [0, 1]^2 (convex and flat: the geodesic is the segment).
 const TestMesh& flat_grid_mesh() {

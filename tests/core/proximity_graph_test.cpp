@@ -50,6 +50,8 @@ using namespace test_meshes;
 using test_support::expect_same_graph;
 using test_support::fmt;
 using test_support::same_bits;
+using test_support::shipped_mesh;
+using test_support::spot;
 
 constexpr double kRel = 1e-9;
 
@@ -60,19 +62,6 @@ bool close_rel(double got, double expected, double rel, double floor) {
 
 // ---------------------------------------------------------------------------------------------
 // Meshes
-
-TestMesh shipped_mesh(const std::string& name) {
-  const std::string path = std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
-  TestMesh out;
-  out.mesh = std::make_unique<TriangleMesh>(load_mesh(path));
-  out.geometry = std::make_unique<IntrinsicGeometry>(*out.mesh);
-  return out;
-}
-
-const TestMesh& spot() {
-  static const TestMesh m = shipped_mesh("spot.obj");
-  return m;
-}
 
 /// Flat 30 x 24 grid, jittered, with a 10 x 6 cell hole: geodesics bend at the hole's corners
 /// (boundary pseudo-sources), and the jitter breaks the grid's ties between shortest paths.
@@ -831,18 +820,7 @@ TEST(ProximityGraph, IdenticalForOneAndTwoThreads) {
   const TestMesh& m = spot();
   const ProximityGraph a = build(m, 150, 10, SamplingMethod::FastMarching, 1);
   const ProximityGraph b = build(m, 150, 10, SamplingMethod::FastMarching, 2);
-  EXPECT_TRUE(same_bits(a.sample_vertex, b.sample_vertex));
-  EXPECT_TRUE(same_bits(a.edge_offsets, b.edge_offsets));
-  EXPECT_TRUE(same_bits(a.edge_target, b.edge_target));
-  EXPECT_TRUE(same_bits(a.edge_distance, b.edge_distance));
-  EXPECT_TRUE(same_bits(a.edge_direction, b.edge_direction));
-  EXPECT_TRUE(same_bits(a.cover_offsets, b.cover_offsets));
-  EXPECT_TRUE(same_bits(a.cover_sample, b.cover_sample));
-  EXPECT_TRUE(same_bits(a.cover_distance, b.cover_distance));
-  EXPECT_EQ(std::bit_cast<std::uint64_t>(a.longest_edge),
-            std::bit_cast<std::uint64_t>(b.longest_edge));
-  EXPECT_EQ(std::bit_cast<std::uint64_t>(a.covering_radius),
-            std::bit_cast<std::uint64_t>(b.covering_radius));
+  expect_same_graph(a.view(), b);
   // And the same as the shared graph built with the default thread count.
   EXPECT_TRUE(same_bits(a.edge_distance, spot_fmm_graph().edge_distance));
   EXPECT_TRUE(same_bits(a.cover_distance, spot_fmm_graph().cover_distance));

@@ -1,5 +1,5 @@
 // Small helpers shared by the core test files (formatting, bitwise comparison of arrays and of
-// proximity graphs). Header-only, like test_meshes.h.
+// proximity graphs, the shipped sample meshes). Header-only, like test_meshes.h.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -12,7 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "core/mesh_io.h"
 #include "core/proximity_graph.h"
+#include "tests/core/test_meshes.h"
 
 namespace geoprox::test_support {
 
@@ -54,6 +56,21 @@ inline void expect_same_graph(const ProximityGraphView& v, const ProximityGraph&
   EXPECT_TRUE(same_bits(v.cover_offsets, g.cover_offsets));
   EXPECT_TRUE(same_bits(v.cover_sample, g.cover_sample));
   EXPECT_TRUE(same_bits(v.cover_distance, g.cover_distance));
+}
+
+/// A mesh of data/meshes/ (the repository's own copies), loaded once per call.
+inline test_meshes::TestMesh shipped_mesh(const std::string& name) {
+  const std::string path = std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
+  test_meshes::TestMesh out;
+  out.mesh = std::make_unique<TriangleMesh>(load_mesh(path));
+  out.geometry = std::make_unique<IntrinsicGeometry>(*out.mesh);
+  return out;
+}
+
+/// spot.obj (5,856 faces), loaded once for the whole test binary.
+inline const test_meshes::TestMesh& spot() {
+  static const test_meshes::TestMesh m = shipped_mesh("spot.obj");
+  return m;
 }
 
 }  // namespace geoprox::test_support
