@@ -435,40 +435,45 @@ bool ExactGeodesicSolver::trim_window(Window& w) const {
   const double L = lay.length;
   const double scale = w.sigma + std::abs(w.sx) + std::abs(w.sy) + L;
   const double slack = kPruneSlack * scale;
+  const Triangle& corners = mesh_->face(TriangleMesh::face_of(h));
+  const int k = static_cast<int>(h % 3);
+  // The distances at the interval's ends, recomputed only when an end moves.
+  double d0 = w.distance_at(w.b0), d1 = w.distance_at(w.b1);
 
   // Through vertex a (x = 0): D(x) - x is non-increasing, so a dominates a prefix [b0, x*].
-  const double da = vertex_estimate(mesh_->origin(h));
+  const double da = vertex_estimate(corners[k]);
   if (da < kInfinity) {
-    if (w.distance_at(w.b1) - w.b1 > da + slack) return false;
-    if (w.distance_at(w.b0) - w.b0 > da + slack) {
-      const double k = da + slack - w.sigma;
-      const double denom = 2 * (k + w.sx);
+    if (d1 - w.b1 > da + slack) return false;
+    if (d0 - w.b0 > da + slack) {
+      const double kk = da + slack - w.sigma;
+      const double denom = 2 * (kk + w.sx);
       if (denom > 0) {
-        const double x = (w.sx * w.sx + w.sy * w.sy - k * k) / denom;
+        const double x = (w.sx * w.sx + w.sy * w.sy - kk * kk) / denom;
         w.b0 = std::clamp(x, w.b0, w.b1);
+        d0 = w.distance_at(w.b0);
       }
     }
   }
   // Through vertex b (x = L): D(x) - (L - x) is non-decreasing: b dominates a suffix.
-  const double db = vertex_estimate(mesh_->target(h));
+  const double db = vertex_estimate(corners[(k + 1) % 3]);
   if (db < kInfinity) {
-    if (w.distance_at(w.b0) - (L - w.b0) > db + slack) return false;
-    if (w.distance_at(w.b1) - (L - w.b1) > db + slack) {
-      const double k = db + slack - w.sigma + L;
-      const double denom = 2 * (k - w.sx);
+    if (d0 - (L - w.b0) > db + slack) return false;
+    if (d1 - (L - w.b1) > db + slack) {
+      const double kk = db + slack - w.sigma + L;
+      const double denom = 2 * (kk - w.sx);
       if (denom > 0) {
-        const double x = (k * k - w.sx * w.sx - w.sy * w.sy) / denom;
+        const double x = (kk * kk - w.sx * w.sx - w.sy * w.sy) / denom;
         w.b1 = std::clamp(x, w.b0, w.b1);
+        d1 = w.distance_at(w.b1);
       }
     }
   }
   if (w.b1 < w.b0) return false;
   // Through the opposite vertex c of the face the window enters.
-  const double dc = vertex_estimate(mesh_->opposite_vertex(h));
+  const double dc = vertex_estimate(corners[(k + 2) % 3]);
   if (dc < kInfinity) {
     const double c0 = length2(lay.cx - w.b0, lay.cy);
     const double c1 = length2(lay.cx - w.b1, lay.cy);
-    const double d0 = w.distance_at(w.b0), d1 = w.distance_at(w.b1);
     if (dc >= w.sigma) {
       // {q : |Sq| - |cq| > dc - sigma} is convex when dc >= sigma (inside a hyperbola branch).
       if (d0 > dc + c0 + slack && d1 > dc + c1 + slack) return false;
@@ -588,6 +593,10 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
     const std::uint32_t list = side == 0 ? h : static_cast<std::uint32_t>(twin);
     for_each_live_window(list, [&](std::int32_t, Window& o) {
       if (!alive) return;
+      // Most windows on an edge cover other stretches of it: skip them before any arithmetic.
+      const double their_lo = side == 0 ? o.b0 : L - o.b1;
+      const double their_hi = side == 0 ? o.b1 : L - o.b0;
+      if (!(std::min(mine.hi, their_hi) > std::max(mine.lo, their_lo))) return;
       EdgeDistance theirs = side == 0
                                 ? EdgeDistance{o.sx, o.sy * o.sy, o.sigma, o.b0, o.b1}
                                 : EdgeDistance{L - o.sx, o.sy * o.sy, o.sigma, L - o.b1, L - o.b0};
@@ -640,8 +649,8 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
     }
     source.y = 0;
   }
-  Window w{b0,     b1,     source.x, source.y,     sigma, 0,    halfedge,
-           parent, origin, seed,     source_index, -1,    false};
+  Window w{b0,       b1,       0,     -1,     false,  source.x,    source.y,
+           sigma,    halfedge, parent, origin, seed,   source_index};
   if (!trim_window(w) || !trim_against_edge_windows(w)) {
     ++stats_.windows_pruned;
     return;

@@ -127,17 +127,18 @@ class ExactGeodesicSolver {
 
  private:
   struct Window {
+    // The fields read while walking a halfedge's window list come first (one cache line).
     double b0, b1;     // interval along the halfedge, from its origin
+    double key;        // smallest distance over the interval; kInfinity once dropped
+    std::int32_t next_on_halfedge;
+    bool propagated;   // unfolded into the next face already (never trimmed after that)
     double sx, sy;     // unfolded (pseudo-)source in the halfedge frame, sy < 0
     double sigma;      // distance already travelled to the (pseudo-)source
-    double key;        // smallest distance over the interval; kInfinity once dropped
     std::uint32_t halfedge;
     std::int32_t parent;    // window this one was unfolded from, or -1
     std::int32_t origin;    // pseudo-source vertex when parent == -1, or -1 for a seed
     std::int32_t seed;      // seed index when parent == -1 and origin == -1
     std::uint32_t source_index;
-    std::int32_t next_on_halfedge;
-    bool propagated;        // unfolded into the next face already (never trimmed after that)
 
     double distance_at(double x) const { return sigma + std::sqrt((x - sx) * (x - sx) + sy * sy); }
     /// Where the straight line from point (px, py), py >= 0, towards S crosses the edge's line

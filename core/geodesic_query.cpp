@@ -46,6 +46,7 @@ double bounding_box_diagonal(const TriangleMesh& mesh) {
 }
 
 constexpr std::int32_t kFromQueryPoint = -1;  // parent of a sample linked directly
+constexpr std::uint32_t kDirect = UINT32_MAX;  // QueryLinks::via of a link not through a vertex
 
 }  // namespace
 
@@ -53,6 +54,9 @@ constexpr std::int32_t kFromQueryPoint = -1;  // parent of a sample linked direc
 // found out about the other query point(s).
 struct QueryLinks {
   std::vector<std::pair<std::uint32_t, double>> samples;
+  /// Parallel to samples: the vertex a link passes through and the exact distance to it
+  /// (links through covers), or {kDirect, 0} for a link straight from a solve or a cover row.
+  std::vector<std::pair<std::uint32_t, double>> via;
   double longest = 0;
   /// The exact distances of the local solve to every vertex it settled (fields only).
   std::vector<std::pair<std::uint32_t, double>> region;
@@ -71,7 +75,9 @@ struct QueryScratch::Impl {
                     std::vector<std::uint32_t>(num_samples)},
         settled_stamp{std::vector<std::uint32_t>(num_samples, 0),
                       std::vector<std::uint32_t>(num_samples, 0)},
-        origin(num_samples) {}
+        origin(num_samples),
+        link_stamp(num_samples, 0),
+        link_slot(num_samples, 0) {}
 
   // Lazily resets sample i's labels for this search.
   void touch(std::uint32_t i) {
@@ -115,6 +121,11 @@ struct QueryScratch::Impl {
   const QueryInterrupt* interrupt = nullptr;
   Vec3 source_position, target_position;  ///< of the current point-to-point query
   std::uint32_t pops = 0;  ///< graph-search pops, for polling the interrupt
+  /// Linking through covers: slot of sample i in the links being assembled, valid when
+  /// link_stamp[i] == link_generation.
+  std::uint32_t link_generation = 0;
+  std::vector<std::uint32_t> link_stamp;
+  std::vector<std::uint32_t> link_slot;
 
   void poll() {
     if (interrupt && (++pops & 255) == 0) interrupt->check();
@@ -203,14 +214,72 @@ bool GeodesicQuery::link_by_covers(const SurfacePoint& p, Links& out) const {
   const std::uint32_t begin = graph_.cover_offsets[p.id], end = graph_.cover_offsets[p.id + 1];
   if (begin == end) return false;  // no cover table (imported graph) or an uncovered vertex
   out.samples.clear();
+  out.via.clear();
   out.region.clear();
   out.longest = 0;
   for (std::uint32_t c = begin; c < end; ++c) {
     const double d = graph_.cover_distance[c];
     out.samples.emplace_back(graph_.cover_sample[c], d);
+    out.via.emplace_back(kDirect, 0.0);
     out.longest = std::max(out.longest, d);
   }
   return true;
+}
+
+double GeodesicQuery::link_solve_radius(const SurfacePoint& p) const {
+  if (!(options_.link_solve_edges > 0)) return link_radius_;
+  const auto [face, bary] = p.in_face(*mesh_);
+  const Vec2 q = geometry_->face_point(face, bary.data());
+  double edges = 0, corners = 0;
+  for (int i = 0; i < 3; ++i) {
+    edges += geometry_->layout(3 * face + static_cast<std::uint32_t>(i)).length;
+    const Vec2 c = geometry_->face_corner(face, i);
+    // At least out to the corners, so that some vertex is settled.
+    corners = std::max(corners, std::hypot(q.x - c.x, q.y - c.y) * (1 + 1e-9));
+  }
+  return std::min(std::max(options_.link_solve_edges * edges / 3, corners), link_radius_);
+}
+
+bool GeodesicQuery::link_through_covers(const ExactGeodesicSolver& solver, double radius,
+                                        QueryScratch::Impl& s, Links& out) const {
+  if (graph_.cover_sample.empty()) return false;
+  out.samples.clear();
+  out.via.clear();
+  out.longest = 0;
+  if (++s.link_generation == 0) {
+    std::fill(s.link_stamp.begin(), s.link_stamp.end(), 0);
+    s.link_generation = 1;
+  }
+  // Each settled vertex v offers d(p, v) + d(v, sample) for the samples in its cover row; the
+  // best over v is within a fraction of an edge of d(p, sample) (the geodesic passes near some
+  // settled vertex) and is the length of a real path.
+  for (std::uint32_t v : solver.touched_vertices()) {
+    const double dv = solver.distance(v);
+    if (!(dv <= radius)) continue;
+    for (std::uint32_t c = graph_.cover_offsets[v]; c < graph_.cover_offsets[v + 1]; ++c) {
+      // Rows reach rho beyond v, so links reach up to rho plus the solve's radius: more
+      // samples than the paper's disk, which shortens the graph paths of pairs just beyond rho.
+      const double d = dv + static_cast<double>(graph_.cover_distance[c]);
+      const std::uint32_t i = graph_.cover_sample[c];
+      if (s.link_stamp[i] != s.link_generation) {
+        s.link_stamp[i] = s.link_generation;
+        s.link_slot[i] = static_cast<std::uint32_t>(out.samples.size());
+        out.samples.emplace_back(i, d);
+        out.via.emplace_back(v, dv);
+      } else if (d < out.samples[s.link_slot[i]].second) {
+        out.samples[s.link_slot[i]].second = d;
+        out.via[s.link_slot[i]] = {v, dv};
+      }
+    }
+  }
+  for (const auto& [i, d] : out.samples) out.longest = std::max(out.longest, d);
+  return !out.samples.empty();
+}
+
+bool GeodesicQuery::may_be_within_link_radius(const SurfacePoint& s, const SurfacePoint& t) const {
+  if (!euclidean_lower_bound_) return true;
+  // The straight line is never longer than the geodesic when lengths are the embedding's.
+  return norm(s.position(*mesh_) - t.position(*mesh_)) <= link_radius_ * (1 + 1e-9);
 }
 
 void GeodesicQuery::solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
@@ -222,17 +291,33 @@ void GeodesicQuery::solve_within_link_radius(const SurfacePoint& p, ExactGeodesi
 }
 
 void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                  QueryScratch::Impl& s, Links& out) const {
-  out.samples.clear();
+                                  QueryScratch::Impl& s, Links& out,
+                                  bool solved_to_link_radius) const {
   out.region.clear();
+  const double radius = link_solve_radius(p);
+  if (radius < link_radius_ && !graph_.cover_sample.empty()) {
+    if (!solved_to_link_radius) {
+      ExactGeodesicOptions bounded;
+      bounded.max_distance = radius;
+      bounded.interrupt = s.interrupt;
+      solver.solve(p, bounded);
+    }
+    if (link_through_covers(solver, radius, s, out)) return;
+    // No sample within rho through the covers (a sparse spot): link as below.
+  }
+  out.samples.clear();
+  out.via.clear();
   out.longest = 0;
-  solve_within_link_radius(p, solver, s.interrupt);
+  if (!solved_to_link_radius || solver.radius_reached() < link_radius_) {
+    solve_within_link_radius(p, solver, s.interrupt);
+  }
   for (std::uint32_t v : solver.touched_vertices()) {
     const std::int32_t sample = sample_of_vertex_[v];
     if (sample < 0) continue;
     const double d = solver.distance(v);  // finite only within the final radius
     if (d < kInfinity) {
       out.samples.emplace_back(static_cast<std::uint32_t>(sample), d);
+      out.via.emplace_back(kDirect, 0.0);
       out.longest = std::max(out.longest, d);
     }
   }
@@ -246,6 +331,7 @@ void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
     for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
       const double d = solver.settled_target_distances()[k];
       out.samples.emplace_back(solver.settled_targets()[k], d);
+      out.via.emplace_back(kDirect, 0.0);
       out.longest = std::max(out.longest, d);
     }
   }
@@ -452,27 +538,33 @@ Unreachable unreachable(const SurfacePoint& s, const SurfacePoint& t) {
 }  // namespace
 
 // Links both points; returns the exact distance when they are within the link radius (then the
-// links may be incomplete), else kInfinity. `solved_s`/`solved_t` say whose solver holds a solve
-// from that point.
+// links are not needed), else kInfinity. Exactness is decided by one solve out to rho from s,
+// skipped when the straight line already says the points are farther apart. `solved_s` /
+// `solved_t` say that an exact answer comes from solver_s / solver_t.
 double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
                                 QueryScratch::Impl& w, bool& solved_s, bool& solved_t) const {
   solved_s = solved_t = false;
+  if (may_be_within_link_radius(s, t)) {
+    solve_within_link_radius(s, w.solver_s, w.interrupt);
+    solved_s = true;
+    const double exact = w.solver_s.distance(t);
+    if (exact < kInfinity) return exact;
+  }
+  // A link solve may reach the other point too (a point with no sample within rho links
+  // through a solve out to its nearest sample): then that exact answer stands, as in fields.
   if (!link_by_covers(s, w.links_s)) {
-    link_by_solve(s, w.solver_s, w, w.links_s);
+    link_by_solve(s, w.solver_s, w, w.links_s, solved_s);
     solved_s = true;
     const double exact = w.solver_s.distance(t);
     if (exact < kInfinity) return exact;
   }
   if (!link_by_covers(t, w.links_t)) {
     link_by_solve(t, w.solver_t, w, w.links_t);
-    solved_t = true;
     const double exact = w.solver_t.distance(s);
-    if (exact < kInfinity) return exact;
-  }
-  if (!solved_s && !solved_t) {  // two vertices: one bounded solve decides exactness
-    solve_within_link_radius(s, w.solver_s, w.interrupt);
-    solved_s = true;
-    return w.solver_s.distance(t);
+    if (exact < kInfinity) {
+      solved_t = true;
+      return exact;
+    }
   }
   return kInfinity;
 }
@@ -618,6 +710,28 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
   append_points(out.points, piece);
 }
 
+// The geodesic along one link of p: through the link's vertex when it has one (exact path to
+// the vertex, then the exact path from the vertex to the sample, whose length is the cover
+// entry), else straight to the sample. Its length is the link's distance (the cover table holds
+// floats: to about 1e-7 relative).
+std::vector<PathPoint> GeodesicQuery::link_piece(const SurfacePoint& p, const Links& links,
+                                                 std::uint32_t sample, QueryScratch::Impl& s,
+                                                 ExactGeodesicSolver& solver) const {
+  std::size_t k = 0;
+  while (k < links.samples.size() && links.samples[k].first != sample) ++k;
+  GEOPROX_ASSERT(k < links.samples.size(), "path through a sample that is not linked");
+  const SurfacePoint& target = sample_points_[sample];
+  const auto [vertex, to_vertex] = links.via[k];
+  if (vertex == kDirect) return exact_piece(p, target, links.samples[k].second, solver, s.interrupt);
+  std::vector<PathPoint> piece =
+      exact_piece(p, SurfacePoint::vertex(vertex), to_vertex, solver, s.interrupt);
+  const std::vector<PathPoint> rest =
+      exact_piece(SurfacePoint::vertex(vertex), target, links.samples[k].second - to_vertex,
+                  solver, s.interrupt);
+  append_points(piece, rest);
+  return piece;
+}
+
 PathResult GeodesicQuery::path(const SurfacePoint& s, const SurfacePoint& t,
                                QueryScratch& scratch) const {
   s.validate(*mesh_);
@@ -626,13 +740,14 @@ PathResult GeodesicQuery::path(const SurfacePoint& s, const SurfacePoint& t,
   PathResult result;
   bool solved_s = false, solved_t = false;
   result.distance = link_pair(s, t, w, solved_s, solved_t);
-  if (result.distance < kInfinity) {
+  if (result.distance < kInfinity) {  // exact: from a solve from s, or from t
     result.exact = true;
-    if (solved_s && w.solver_s.distance(t) < kInfinity) {
-      result.points = w.solver_s.path_to(t).points;
-    } else {
+    if (solved_t) {
       result.points = w.solver_t.path_to(s).points;
       std::reverse(result.points.begin(), result.points.end());
+    } else {
+      GEOPROX_ASSERT(solved_s, "an exact answer without a solve");
+      result.points = w.solver_s.path_to(t).points;
     }
     return result;
   }
@@ -657,23 +772,11 @@ PathResult GeodesicQuery::path(const SurfacePoint& s, const SurfacePoint& t,
     edges.push_back(w.parent_edge[1][result.samples.back()]);
     result.samples.push_back(static_cast<std::uint32_t>(i));
   }
-  // The end pieces: from a link solve's backtrace when there was one, else a bounded exact
-  // solve along the (cover) link. Both before solver_s is reused for exact segments.
-  const SurfacePoint& first = sample_points_[result.samples.front()];
-  const SurfacePoint& last = sample_points_[result.samples.back()];
-  std::vector<PathPoint> tail;  // t -> last sample, reversed below
-  if (solved_t && w.solver_t.distance(last) < kInfinity) {
-    tail = w.solver_t.path_to(last).points;
-  } else {
-    tail = exact_piece(t, last, w.get(1, result.samples.back()), w.solver_t, w.interrupt);
-  }
+  // The end pieces, before solver_s is reused for exact segments.
+  const std::uint32_t first = result.samples.front(), last = result.samples.back();
+  std::vector<PathPoint> tail = link_piece(t, w.links_t, last, w, w.solver_t);  // t -> last
   std::reverse(tail.begin(), tail.end());
-  if (solved_s && w.solver_s.distance(first) < kInfinity) {
-    result.points = w.solver_s.path_to(first).points;
-  } else {
-    result.points = exact_piece(s, first, w.get(0, result.samples.front()), w.solver_s,
-                                w.interrupt);
-  }
+  result.points = link_piece(s, w.links_s, first, w, w.solver_s);
   for (std::size_t k = 0; k + 1 < result.samples.size(); ++k) {
     append_segment(w, result.samples[k], result.samples[k + 1], edges[k], result);
   }
@@ -737,13 +840,10 @@ DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryS
   std::vector<const Links*> links(sources.size());
   for (std::size_t k = 0; k < sources.size(); ++k) {
     Links& l = w.many[k];
-    // Links as for point-to-point queries; the solve within the link radius is needed anyway
-    // for the exact region.
-    if (link_by_covers(sources[k], l)) {
-      solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
-    } else {
-      link_by_solve(sources[k], w.solver_s, w, l);
-    }
+    // Links as for point-to-point queries, from the solve out to rho that the exact region
+    // needs anyway.
+    solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
+    if (!link_by_covers(sources[k], l)) link_by_solve(sources[k], w.solver_s, w, l, true);
     for (std::uint32_t v : w.solver_s.touched_vertices()) {
       const double d = w.solver_s.distance(v);
       if (d <= options.max_distance) l.region.emplace_back(v, d);
@@ -800,23 +900,20 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   std::vector<double> out(S * T, kInfinity);
   if (S == 0 || T == 0) return out;
   if (w.many.size() < S + T) w.many.resize(S + T);
-  // Links as for point-to-point queries. Sources are always solved within the link radius (a
-  // vertex source too) so that every pair closer than the radius gets its exact distance;
-  // targets only when they are not vertices.
+  // Links as for point-to-point queries. Sources are always solved out to the link radius, so
+  // that every pair closer than it gets its exact distance, as distance() does.
   for (std::size_t j = 0; j < T; ++j) {
-    if (link_by_covers(targets[j], w.many[S + j])) continue;
-    link_by_solve(targets[j], w.solver_t, w, w.many[S + j]);
-    for (std::size_t i = 0; i < S; ++i) {
-      out[i * T + j] = std::min(out[i * T + j], w.solver_t.distance(sources[i]));
+    if (!link_by_covers(targets[j], w.many[S + j])) {
+      link_by_solve(targets[j], w.solver_t, w, w.many[S + j]);
+      for (std::size_t i = 0; i < S; ++i) {  // as in distance(): exact when reached
+        out[i * T + j] = std::min(out[i * T + j], w.solver_t.distance(sources[i]));
+      }
     }
   }
   for (std::size_t i = 0; i < S; ++i) {
     Links& l = w.many[i];
-    if (link_by_covers(sources[i], l)) {
-      solve_within_link_radius(sources[i], w.solver_s, w.interrupt);
-    } else {
-      link_by_solve(sources[i], w.solver_s, w, l);
-    }
+    solve_within_link_radius(sources[i], w.solver_s, w.interrupt);
+    if (!link_by_covers(sources[i], l)) link_by_solve(sources[i], w.solver_s, w, l, true);
     for (std::size_t j = 0; j < T; ++j) {
       out[i * T + j] = std::min(out[i * T + j], w.solver_s.distance(targets[j]));
     }

@@ -5,14 +5,16 @@
 // Linking follows the paper's text (§3.1: "the geodesic distances from s to its neighboring
 // samples in a geodesic disk of radius R"): every query point is linked to all samples within the
 // graph's link radius rho, chosen at build time so that such a disk holds m_st = 2 m_P samples on
-// average. A point inside a face or on an edge gets its links from one exact solve bounded by rho;
-// a vertex takes them from its row of the cover table, which lists exactly the samples within rho
-// (every sample's build-time solve reached rho). Pairs closer than rho are answered exactly from
-// the solve of one of them: close pairs, where the paper's worst errors are, come out exact.
-// Because the radius is the same for everyone, "t within rho of s" is symmetric, answers are
-// symmetric, and a distance field (covers of each vertex) equals point-to-point queries to its
-// vertices. Every graph edge and link is an exact geodesic, so graph answers are lengths of real
-// paths: upper bounds of the true distance.
+// average. A vertex takes its links from its row of the cover table, which lists exactly the
+// samples within rho (every sample's build-time solve reached rho). A point inside a face or on
+// an edge is linked through the vertices around it: a small exact solve (three edges) settles
+// them, and each offers its cover row; a link is the best path through one such vertex (see
+// Options::link_solve_edges). Pairs closer than rho are answered exactly from a solve out to
+// rho from s, run only when the straight line between them is shorter than rho: close pairs,
+// where the paper's worst errors are, come out exact. Because the radius is the same for
+// everyone, "t within rho of s" is symmetric, answers are symmetric, and a distance field (covers
+// of each vertex) equals point-to-point queries to its vertices. Every graph edge, cover entry and
+// link is the length of a real path, so graph answers are upper bounds of the true distance.
 //
 // Thread safety: a GeodesicQuery is immutable after construction and may be shared by any
 // number of threads; each thread passes its own QueryScratch, which holds every buffer a query
@@ -60,6 +62,16 @@ struct GeodesicQueryOptions {
   /// Positions farther than this from the surface are refused by snap(), as a fraction of
   /// the mesh's bounding-box diagonal.
   double snap_tolerance = 0.05;
+  /// A point that is not a vertex is linked through the vertices around it: one exact solve
+  /// out to this many edge lengths (the mean of its face's edges; at least to the face's
+  /// corners, at most rho), then every vertex it settled offers its cover-table row (exact
+  /// build-time distances to the samples within rho of it). A link is the best such path
+  /// through one vertex: an upper bound that exceeds the exact distance by about (lateral
+  /// offset)^2 / radius, a small fraction of an edge, for a solve over a fraction of the area
+  /// of a solve out to rho; links reach samples up to rho plus that radius away. 0 (or any
+  /// value reaching rho): links come from a solve out to rho, to the samples within rho,
+  /// exactly, as in the paper.
+  double link_solve_edges = 3;
 };
 
 /// Per-thread buffers for queries on one GeodesicQuery (see the file comment). Movable, not
@@ -173,7 +185,14 @@ class GeodesicQuery {
                    bool& solved_s, bool& solved_t) const;
   bool link_by_covers(const SurfacePoint& p, Links& out) const;
   void link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
-                     Links& out) const;
+                     Links& out, bool solved_to_link_radius = false) const;
+  double link_solve_radius(const SurfacePoint& p) const;
+  bool link_through_covers(const ExactGeodesicSolver& solver, double radius,
+                           QueryScratch::Impl& s, Links& out) const;
+  bool may_be_within_link_radius(const SurfacePoint& s, const SurfacePoint& t) const;
+  std::vector<PathPoint> link_piece(const SurfacePoint& p, const Links& links,
+                                    std::uint32_t sample, QueryScratch::Impl& s,
+                                    ExactGeodesicSolver& solver) const;
   void solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
                                 const QueryInterrupt* interrupt) const;
   std::vector<PathPoint> exact_piece(const SurfacePoint& from, const SurfacePoint& to,

@@ -379,6 +379,47 @@ TEST(GeodesicQuery, NeverBelowExactOnSpot) {
   RecordProperty("error_bound", fmt(bound));
 }
 
+TEST(GeodesicQuery, LinksThroughVerticesAgreeWithExactLinks) {
+  // The default links a face or edge point through the cover rows of the vertices a small solve
+  // settles; link_solve_edges = 0 links by a solve out to rho (every link exact, to the
+  // samples within rho). Each through-vertex link exceeds the exact one to its sample by a
+  // fraction of an edge and reaches a few more samples, so the answers stay upper bounds and
+  // are never worse than the exact-link ones by more than that (here: one mean edge per pair,
+  // two links; a wrong vertex distance or a cover row of the wrong vertex breaks this).
+  const QueryEnv& env = spot_env();
+  GeodesicQueryOptions exact_links;
+  exact_links.link_solve_edges = 0;
+  const GeodesicQuery reference(env.mesh, env.geometry, env.graph.view(), exact_links);
+  QueryScratch scratch = reference.make_scratch();
+  const double edge = env.geometry.mean_edge_length();
+  int graph_answers = 0, differ = 0;
+  double sum_fast = 0, sum_slow = 0;
+  for (std::size_t k = 0; k < spot_pairs().size(); ++k) {
+    const ExactPair& p = spot_pairs()[k];
+    const DistanceResult& fast = spot_answers()[k];
+    const DistanceResult slow = reference.distance(p.s, p.t, scratch);
+    const std::string what = pair_name(p.s, p.t) + ": through vertices " + fmt(fast.distance) +
+                             ", exact links " + fmt(slow.distance) + ", exact " + fmt(p.exact);
+    if (fast.exact && slow.exact) {
+      EXPECT_TRUE(same_bits(fast.distance, slow.distance)) << what;
+      continue;
+    }
+    ++graph_answers;
+    if (fast.distance != slow.distance) ++differ;
+    EXPECT_GE(fast.distance, p.exact * (1 - kBelowExact)) << what;
+    EXPECT_LE(fast.distance, slow.distance + edge) << what;
+    sum_fast += (fast.distance - p.exact) / p.exact;
+    sum_slow += (slow.distance - p.exact) / p.exact;
+  }
+  EXPECT_GT(graph_answers, 500);
+  EXPECT_GT(differ, 0);  // the two linkings are really different
+  // ...and on average the wider links are at least as good.
+  EXPECT_LE(sum_fast, sum_slow * 1.05) << "mean relative errors " << fmt(sum_fast / graph_answers)
+                                      << " and " << fmt(sum_slow / graph_answers);
+  RecordProperty("mean_error_through_vertices", fmt(sum_fast / graph_answers));
+  RecordProperty("mean_error_exact_links", fmt(sum_slow / graph_answers));
+}
+
 TEST(GeodesicQuery, FlatGridWithinTheoremBoundOfEuclidean) {
   const QueryEnv& env = grid_env();
   const double bound = env.graph.view().error_bound();
