@@ -1,11 +1,15 @@
 # geoprox container image: the query daemon geoproxd serving the meshes of a config, plus the
-# geoprox command-line tool.
+# geoprox command-line tool. docs/deployment.md is the manual (replicas, HAProxy, Kubernetes).
 #   docker build -t geoprox .
-#   docker run --rm -p 7878:7878 -p 7879:7879 geoprox            # the sample meshes
-#   docker run --rm -v $PWD/my-config:/srv/geoprox/configs:ro -v $PWD/my-data:/srv/geoprox/data:ro \
-#              -v geoprox-graphs:/srv/geoprox/var geoprox
-# Graphs are built at first start into /srv/geoprox/var/graphs (a volume: mount prebuilt ones
-# there, or keep the volume so later starts only map them). The root filesystem can be read-only.
+#   docker run --rm --read-only -p 7878:7878 -p 7879:7879 geoprox     # the sample meshes
+#   docker run --rm --read-only -v $PWD/my-config:/srv/geoprox/configs:ro \
+#              -v $PWD/my-data:/srv/geoprox/data:ro -v geoprox-graphs:/srv/geoprox/var geoprox
+# The config is /srv/geoprox/configs/geoproxd.json (deploy/geoproxd.json: binds 0.0.0.0, data in
+# /srv/geoprox/data, graphs in /srv/geoprox/var/graphs). Graphs are built at first start into
+# /srv/geoprox/var/graphs, the only directory written; mount prebuilt ones there (read-only is
+# fine when every graph is present and valid), or keep the volume so later starts only map them.
+# The root filesystem can be read-only. scripts/check-dockerfile checks this file (a ctest) and
+# scripts/docker-build-check runs its steps in a fresh Debian 12 root.
 
 # --- builder: toolchain and libraries, build, run the test suite --------------------------
 FROM debian:12 AS builder
@@ -15,10 +19,11 @@ WORKDIR /src
 COPY scripts/install-deps scripts/install-deps
 RUN scripts/install-deps && rm -rf /var/lib/apt/lists/*
 COPY . .
+# The README's build and test commands. MeshIo.DirtySharedMeshes needs ../shared/meshes, which
+# is not in the build context.
 RUN cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DGEOPROX_BUILD_BENCH=OFF \
  && cmake --build build -j"$(nproc)" \
- && ctest --test-dir build --output-on-failure -j"$(nproc)" \
-      -E 'MeshIo.DirtySharedMeshes'  # needs ../shared/meshes, which is not in the build context
+ && ctest --test-dir build --output-on-failure -j"$(nproc)" -E 'MeshIo.DirtySharedMeshes'
 
 # --- runtime: shared libraries only, non-root ---------------------------------------------
 FROM debian:12-slim AS runtime
@@ -30,12 +35,12 @@ RUN /tmp/install-deps --runtime-only && rm -rf /var/lib/apt/lists/* /tmp/install
 COPY --from=builder /src/build/server/geoproxd /usr/local/bin/geoproxd
 COPY --from=builder /src/build/clients/cli/geoprox /usr/local/bin/geoprox
 COPY data/meshes /srv/geoprox/data/meshes
-COPY configs /srv/geoprox/configs
+COPY deploy/geoproxd.json /srv/geoprox/configs/geoproxd.json
 WORKDIR /srv/geoprox
 USER geoprox
-VOLUME ["/srv/geoprox/var"]
+VOLUME ["/srv/geoprox/configs", "/srv/geoprox/data", "/srv/geoprox/var"]
 EXPOSE 7878 7879
 HEALTHCHECK --interval=10s --timeout=3s --start-period=60s --retries=3 \
   CMD ["geoproxd", "--probe"]
 STOPSIGNAL SIGTERM
-ENTRYPOINT ["geoproxd", "--config", "/srv/geoprox/configs/default.json", "--bind", "0.0.0.0"]
+ENTRYPOINT ["geoproxd", "--config", "/srv/geoprox/configs/geoproxd.json"]

@@ -545,6 +545,7 @@ struct PlyElement {
   std::string name;
   std::size_t count = 0;
   std::vector<PlyProperty> properties;
+  std::size_t line = 0;  ///< of its `element` header line
 };
 
 bool is_face_index_list(const PlyProperty& property) {
@@ -674,7 +675,8 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
       if (!count || *count < 0 || *count > static_cast<long long>(UINT32_MAX)) {
         throw_parse_error(path, lines.line(), "bad element count '" + std::string(tokens[2]) + "'");
       }
-      elements.push_back({std::string(tokens[1]), static_cast<std::size_t>(*count), {}});
+      elements.push_back(
+          {std::string(tokens[1]), static_cast<std::size_t>(*count), {}, lines.line()});
     } else if (tokens[0] == "property" && !elements.empty()) {
       PlyProperty property;
       if (tokens.size() == 5 && tokens[1] == "list") {
@@ -703,6 +705,16 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
     }
   }
   if (!ended) throw_parse_error(path, 0, "the PLY header has no end_header line");
+  for (const PlyElement& element : elements) {
+    // Records without properties take no bytes, so the count is not bounded by the file: a
+    // 200-byte file announcing 4e9 of them kept the scan below looping for minutes (a timeout
+    // of tests/fuzz/mesh_io_fuzzer). Such records carry nothing: refuse them.
+    if (element.count > 0 && element.properties.empty()) {
+      throw_parse_error(path, element.line,
+                        "PLY element '" + element.name + "' announces " +
+                            std::to_string(element.count) + " records but has no properties");
+    }
+  }
   if (format != "ascii") {
     // OpenMesh's binary reader locates the data 12 bytes (14 with CRLF) after the end of the
     // last token before end_header: a comment line or trailing blanks there shift every value.

@@ -36,13 +36,15 @@ constexpr std::array kMethods = {
     MethodEntry{Method::AdminRebuild, "admin.rebuild"},
     MethodEntry{Method::AdminUnregister, "admin.unregister"},
     MethodEntry{Method::AdminReload, "admin.reload"},
+    MethodEntry{Method::GeodesicExpmap, "geodesic.expmap"},
+    MethodEntry{Method::GeodesicSpline, "geodesic.spline"},
 };
 
 constexpr bool methods_follow_enum_order() {
   for (std::size_t i = 0; i < kMethods.size(); ++i) {
     if (static_cast<std::size_t>(kMethods[i].method) != i) return false;
   }
-  return static_cast<std::size_t>(Method::AdminReload) + 1 == kMethods.size();
+  return static_cast<std::size_t>(Method::GeodesicSpline) + 1 == kMethods.size();
 }
 static_assert(methods_follow_enum_order(), "kMethods must list every Method in enum order");
 
@@ -171,6 +173,8 @@ std::size_t count_points(const Params& params) {
   if (const auto* p = std::get_if<MatrixParams>(&params)) {
     return p->sources.size() + p->targets.size();
   }
+  if (std::holds_alternative<ExpmapParams>(params)) return 1;
+  if (const auto* p = std::get_if<SplineParams>(&params)) return p->control.size();
   return 0;
 }
 
@@ -277,6 +281,10 @@ std::string_view sampling_name(SamplingMethod sampling) {
       break;
   }
   return "auto";
+}
+
+std::string_view spline_kind_name(SplineKind kind) {
+  return kind == SplineKind::Bezier ? "bezier" : "bspline";
 }
 
 std::string_view mesh_state_name(MeshState state) {
@@ -458,6 +466,55 @@ Params parse_params(Method method, const json& params, const Limits& limits,
       finish(fields);
       return parsed;
     }
+    case Method::GeodesicExpmap: {
+      const ObjectFields fields(params, "params",
+                                {"mesh", "source", "radius", "exact", "timeout_ms"});
+      ExpmapParams parsed;
+      parsed.mesh = read_mesh_id(fields);
+      parsed.source = parse_point(fields.require("source"), "params.source");
+      fields.require("radius");
+      parsed.radius = *fields.optional_positive_number("radius");
+      parsed.exact = fields.optional_bool("exact", false);
+      finish(fields);
+      return parsed;
+    }
+    case Method::GeodesicSpline: {
+      const ObjectFields fields(
+          params, "params", {"mesh", "control", "type", "samples", "exact", "timeout_ms"});
+      SplineParams parsed;
+      parsed.mesh = read_mesh_id(fields);
+      if (const json* control = fields.find("control"); control && control->is_array()) {
+        check_point_count(control->size(), "params.control", limits);
+      }
+      parsed.control =
+          read_points(fields, "control", limits.max_points_per_request, "max_points_per_request");
+      if (auto type = fields.optional_string("type")) {
+        if (*type == "bezier") {
+          parsed.type = SplineKind::Bezier;
+        } else if (*type == "bspline") {
+          parsed.type = SplineKind::BSpline;
+        } else {
+          fields.fail("type", "must be \"bezier\" or \"bspline\", not \"" +
+                                  detail::excerpt(*type) + "\"");
+        }
+      }
+      const std::size_t n = parsed.control.size();
+      if (parsed.type == SplineKind::Bezier && (n < 4 || (n - 1) % 3 != 0)) {
+        fields.fail("control", "needs 3k + 1 points for a cubic Bezier spline (4, 7, 10, ...), "
+                               "not " + std::to_string(n));
+      }
+      if (parsed.type == SplineKind::BSpline && n < 4) {
+        fields.fail("control",
+                    "needs at least 4 points for a cubic B-spline, not " + std::to_string(n));
+      }
+      if (auto samples = fields.optional_positive_integer("samples", limits.max_points_per_request)) {
+        if (*samples < 2) fields.fail("samples", "must be at least 2 (the curve's two ends)");
+        parsed.samples = static_cast<std::uint32_t>(*samples);
+      }
+      parsed.exact = fields.optional_bool("exact", false);
+      finish(fields);
+      return parsed;
+    }
   }
   throw ProtocolError(ErrorReason::Internal, "parse_params: method out of range");
 }
@@ -521,6 +578,19 @@ json params_json(const AdminRebuildParams& p) {
   return out;
 }
 json params_json(const AdminUnregisterParams& p) { return {{"token", p.token}, {"mesh", p.mesh}}; }
+json params_json(const ExpmapParams& p) {
+  json out = {{"mesh", p.mesh}, {"source", p.source}, {"radius", p.radius}};
+  if (p.exact) out["exact"] = true;
+  return out;
+}
+json params_json(const SplineParams& p) {
+  json out = {{"mesh", p.mesh},
+              {"control", points_json(p.control)},
+              {"type", spline_kind_name(p.type)},
+              {"samples", p.samples}};
+  if (p.exact) out["exact"] = true;
+  return out;
+}
 json params_json(const AdminReloadParams& p) {
   json out = {{"token", p.token}};
   if (p.mesh) out["mesh"] = *p.mesh;
@@ -768,6 +838,32 @@ void to_json(json& out, const AdminReloadResult& result) {
                       {"error", outcome.error ? error_to_json(*outcome.error) : json(nullptr)}});
   }
   out = {{"meshes", std::move(meshes)}};
+}
+
+void to_json(json& out, const ExpmapResult& result) {
+  if (result.u.size() != result.vertices.size() || result.v.size() != result.vertices.size()) {
+    throw ProtocolError(ErrorReason::Internal, "geodesic.expmap: columns differ in length");
+  }
+  out = {{"mesh", result.mesh},
+         {"mesh_version", result.mesh_version},
+         {"source", result.source},
+         {"radius", result.radius},
+         {"exact", result.exact},
+         {"count", result.vertices.size()},
+         {"vertices", result.vertices},
+         {"u", result.u},
+         {"v", result.v}};
+}
+
+void to_json(json& out, const SplineResult& result) {
+  json polygon = json::array();
+  for (const std::vector<PathPoint>& leg : result.control_polygon) polygon.push_back(leg);
+  out = {{"mesh", result.mesh},
+         {"mesh_version", result.mesh_version},
+         {"type", spline_kind_name(result.type)},
+         {"exact", result.exact},
+         {"points", result.points},
+         {"control_polygon", std::move(polygon)}};
 }
 
 void to_json(json& out, const BatchResult& result) {

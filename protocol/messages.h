@@ -46,6 +46,8 @@ enum class Method : std::uint8_t {
   AdminRebuild,
   AdminUnregister,
   AdminReload,
+  GeodesicExpmap,
+  GeodesicSpline,
 };
 
 /// Every method in declaration order, and their wire names ("geodesic.distance", ...).
@@ -141,6 +143,28 @@ struct AdminReloadParams {
   std::optional<std::string> mesh;  ///< absent: every mesh
 };
 
+/// geodesic.expmap: geodesic polar coordinates of every vertex within `radius` of `source`
+/// (core/exponential_map.h).
+struct ExpmapParams {
+  std::string mesh;
+  WirePoint source;
+  double radius = 0;   ///< > 0, finite
+  bool exact = false;  ///< the exact solver's map instead of the graph's
+};
+
+enum class SplineKind : std::uint8_t { Bezier, BSpline };
+std::string_view spline_kind_name(SplineKind kind);  ///< "bezier", "bspline"
+
+/// geodesic.spline: a cubic Bezier (3k + 1 control points) or uniform cubic B-spline (>= 4)
+/// on the surface (core/geodesic_spline.h).
+struct SplineParams {
+  std::string mesh;
+  std::vector<WirePoint> control;  ///< 4 to max_points_per_request points
+  SplineKind type = SplineKind::Bezier;
+  std::uint32_t samples = 100;  ///< curve points, 2 to max_points_per_request
+  bool exact = false;           ///< exact geodesics instead of the graph's
+};
+
 struct BatchEntry;
 
 /// Independent requests answered together, in order, each with its own result or error.
@@ -152,7 +176,8 @@ struct BatchParams {
 using Params =
     std::variant<DistanceParams, PathParams, FieldParams, MatrixParams, BatchParams, MeshListParams,
                  MeshInfoParams, ServerInfoParams, ServerHealthParams, ServerMetricsParams,
-                 AdminRegisterParams, AdminRebuildParams, AdminUnregisterParams, AdminReloadParams>;
+                 AdminRegisterParams, AdminRebuildParams, AdminUnregisterParams, AdminReloadParams,
+                 ExpmapParams, SplineParams>;
 
 /// One entry of a batch, `{"method": ..., "params": {...}}`. An entry that does not parse does
 /// not fail the batch: it carries its error, answered in its slot.
@@ -301,6 +326,28 @@ struct AdminReloadResult {
   std::vector<ReloadOutcome> meshes;
 };
 
+/// Columns of equal length, in increasing vertex id: the vertices within the radius and their
+/// (u, v) = d (cos theta, sin theta).
+struct ExpmapResult {
+  std::string mesh;
+  std::string mesh_version;
+  WirePoint source;
+  double radius = 0;
+  bool exact = false;
+  std::vector<std::uint32_t> vertices;
+  std::vector<double> u;
+  std::vector<double> v;
+};
+
+struct SplineResult {
+  std::string mesh;
+  std::string mesh_version;
+  SplineKind type = SplineKind::Bezier;
+  bool exact = false;
+  std::vector<PathPoint> points;                       ///< the curve, in order
+  std::vector<std::vector<PathPoint>> control_polygon;  ///< geodesic i from control i to i + 1
+};
+
 /// The answers of a batch, one per entry in order: a result object or an error.
 struct BatchResult {
   std::vector<std::variant<nlohmann::json, ProtocolError>> results;
@@ -321,6 +368,8 @@ void to_json(nlohmann::json& out, const AdminUnregisterResult& result);
 void to_json(nlohmann::json& out, const AdminReloadResult& result);
 void to_json(nlohmann::json& out, const BatchResult& result);
 void to_json(nlohmann::json& out, const BuildOptions& build);
+void to_json(nlohmann::json& out, const ExpmapResult& result);
+void to_json(nlohmann::json& out, const SplineResult& result);
 
 /// The reply line of a field result: byte for byte serialize_result(id, json(result)), but with
 /// "f32le-base64" the base64 strings go straight into the line instead of through a JSON

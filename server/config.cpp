@@ -186,7 +186,8 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
       const json& m = (*meshes)[i];
       if (!m.is_object()) throw ConfigError(where + ": expected an object");
       const Reader r(m, where);
-      r.only({"id", "mesh", "graph", "samples", "neighbors", "link_samples", "sampling"});
+      r.only({"id", "mesh", "graph", "metric", "samples", "neighbors", "link_samples",
+              "sampling"});
       MeshConfig mesh;
       r.string("id", mesh.id);
       if (mesh.id.empty()) throw ConfigError(where + ".id: required");
@@ -209,6 +210,12 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
         throw ConfigError(where + ".graph: " + mesh.graph_path.string() +
                           " is the graph file of another mesh");
       }
+      std::string metric_file;
+      r.string("metric", metric_file);
+      if (r.find("metric") != nullptr && metric_file.empty()) {
+        throw ConfigError(where + ".metric: must not be empty (leave it out for no metric)");
+      }
+      if (!metric_file.empty()) mesh.build.metric_path = resolve(config.data_dir, metric_file);
       r.integer("samples", mesh.build.samples, 0, std::numeric_limits<std::uint32_t>::max());
       r.integer("neighbors", mesh.build.neighbors, 0, std::numeric_limits<std::uint32_t>::max());
       r.integer("link_samples", mesh.build.link_samples, 0,

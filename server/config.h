@@ -30,6 +30,10 @@ struct BuildParams {
   std::uint32_t neighbors = 0;
   std::uint32_t link_samples = 0;
   SamplingMethod sampling = SamplingMethod::Automatic;
+  /// Riemannian metric side file (docs/metrics.md; absolute, lexically normal), as `geoprox
+  /// build --metric`: the mesh's edge lengths come from it, for the build and for every load
+  /// (a graph file built without it, or with another, is refused and rebuilt). Empty: none.
+  std::filesystem::path metric_path = {};
 };
 
 /// One mesh of the config's "meshes" array, paths resolved.

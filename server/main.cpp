@@ -22,6 +22,7 @@
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
 #include "core/mesh_io.h"
+#include "core/riemannian_metric.h"
 #include "server/config.h"
 #include "server/logging.h"
 #include "server/registry.h"
@@ -117,7 +118,7 @@ int run_check(const Config& config) {
   for (const MeshConfig& m : config.meshes) {
     try {
       const TriangleMesh mesh = load_mesh(m.mesh_path.string());
-      const IntrinsicGeometry geometry(mesh);
+      const IntrinsicGeometry geometry = load_geometry(mesh, m.build.metric_path.string());
       std::printf("mesh %s: %s OK (%zu vertices, %zu faces)\n", m.id.c_str(),
                   m.mesh_path.string().c_str(), mesh.num_vertices(), mesh.num_faces());
       std::error_code ec;

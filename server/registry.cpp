@@ -9,6 +9,7 @@
 #include "core/errors.h"
 #include "core/mesh_io.h"
 #include "core/proximity_graph.h"
+#include "core/riemannian_metric.h"
 
 namespace geoprox::server {
 
@@ -286,7 +287,12 @@ void Registry::run_job(const Job& job) {
   try {
     set_phase(entry->mutex_, entry->phase_, entry->progress_, "loading", 0);
     spdlog::info("mesh {}: loading {}", entry->id(), entry->mesh_path().string());
-    data = std::make_shared<const MeshData>(load_mesh(entry->mesh_path().string()));
+    auto loaded = std::make_shared<MeshData>(load_mesh(entry->mesh_path().string()));
+    if (!job.build.metric_path.empty()) {
+      spdlog::info("mesh {}: metric {}", entry->id(), job.build.metric_path.string());
+      loaded->geometry = load_geometry(loaded->mesh, job.build.metric_path.string());
+    }
+    data = std::move(loaded);
     {
       std::lock_guard lock(entry->mutex_);
       entry->vertices_ = data->mesh.num_vertices();

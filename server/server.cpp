@@ -139,9 +139,14 @@ class Connection : public std::enable_shared_from_this<Connection> {
     reading_ = false;
     if (closed_) return;
     if (n > 0) {
-      last_activity_ = Clock::now();
       server_.metrics.bytes_read.fetch_add(n, std::memory_order_relaxed);
+      const std::size_t frames_before = framer_.pending_frames();
       framer_.feed(std::string_view(buffer_.data(), n));
+      // Only a completed line (a blank keep-alive too) restarts the read timeout: restarting it
+      // on every byte let a client trickling one byte per second hold a connection forever.
+      if (framer_.pending_frames() > frames_before || framer_.partial_bytes() == 0) {
+        last_activity_ = Clock::now();
+      }
     }
     if (ec) {
       if (ec == asio::error::eof) {

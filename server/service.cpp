@@ -8,7 +8,9 @@
 #include <nlohmann/json.hpp>
 #include <variant>
 
+#include "core/exponential_map.h"
 #include "core/geodesic_query.h"
+#include "core/geodesic_spline.h"
 #include "core/surface_point.h"
 
 #ifndef GEOPROX_VERSION
@@ -243,6 +245,70 @@ protocol::MatrixResult run_matrix(const protocol::MatrixParams& p, const LoadedM
   return r;
 }
 
+protocol::PathPoint to_wire_point(const PathPoint& point, const TriangleMesh& mesh) {
+  const auto [face, bary] = point.point.in_face(mesh);
+  return {face, bary, {point.position.x, point.position.y, point.position.z}};
+}
+
+protocol::ExpmapResult run_expmap(const protocol::ExpmapParams& p, const LoadedMesh& m,
+                                  RequestContext& context) {
+  const SurfacePoint source = resolve(p.source, m, "params.source");
+  context.interrupt.check();
+  // Its own scratch and solvers: the map needs a whole bounded solve, not a leased slot's.
+  ExponentialMap map(m.query());
+  ExponentialMapOptions options;
+  options.radius = p.radius;
+  options.mode = p.exact ? ExponentialMapMode::Exact : ExponentialMapMode::Graph;
+  options.interrupt = &context.interrupt;
+  const ExponentialMapResult map_result = map.compute(source, options);
+  protocol::ExpmapResult r;
+  r.mesh = context.mesh;
+  r.mesh_version = m.version();
+  r.source = p.source;
+  r.radius = p.radius;
+  r.exact = p.exact;
+  r.vertices.reserve(map_result.vertices.size());
+  r.u.reserve(map_result.vertices.size());
+  r.v.reserve(map_result.vertices.size());
+  for (const ExponentialMapVertex& e : map_result.vertices) {
+    r.vertices.push_back(e.vertex);
+    r.u.push_back(e.u);
+    r.v.push_back(e.v);
+  }
+  return r;
+}
+
+protocol::SplineResult run_spline(const protocol::SplineParams& p, const LoadedMesh& m,
+                                  RequestContext& context) {
+  std::vector<SurfacePoint> control;
+  control.reserve(p.control.size());
+  for (std::size_t i = 0; i < p.control.size(); ++i) {
+    control.push_back(resolve(p.control[i], m, indexed("control", i, 0, nullptr)));
+  }
+  context.interrupt.check();
+  GeodesicSpline spline(m.query());
+  GeodesicSplineOptions options;
+  options.type = p.type == protocol::SplineKind::Bezier ? SplineType::Bezier : SplineType::BSpline;
+  options.samples = p.samples;
+  options.geodesics = p.exact ? SplineGeodesics::Exact : SplineGeodesics::Graph;
+  options.interrupt = &context.interrupt;
+  const GeodesicSplineResult curve = spline.compute(control, options);
+  protocol::SplineResult r;
+  r.mesh = context.mesh;
+  r.mesh_version = m.version();
+  r.type = p.type;
+  r.exact = p.exact;
+  r.points.reserve(curve.curve.size());
+  for (const PathPoint& point : curve.curve) r.points.push_back(to_wire_point(point, m.mesh()));
+  for (const std::vector<PathPoint>& leg : curve.control_polygon) {
+    std::vector<protocol::PathPoint> wire;
+    wire.reserve(leg.size());
+    for (const PathPoint& point : leg) wire.push_back(to_wire_point(point, m.mesh()));
+    r.control_polygon.push_back(std::move(wire));
+  }
+  return r;
+}
+
 protocol::SamplingMethod to_wire(SamplingMethod s) {
   switch (s) {
     case SamplingMethod::FastMarching:
@@ -380,6 +446,14 @@ json Service::execute(const protocol::Params& params, RequestContext& context) c
           [&](const protocol::MatrixParams& p) -> json {
             auto mesh = acquire(registry_, config_, p.mesh, context);
             return run_matrix(p, *mesh, context, config_.limits);
+          },
+          [&](const protocol::ExpmapParams& p) -> json {
+            auto mesh = acquire(registry_, config_, p.mesh, context);
+            return run_expmap(p, *mesh, context);
+          },
+          [&](const protocol::SplineParams& p) -> json {
+            auto mesh = acquire(registry_, config_, p.mesh, context);
+            return run_spline(p, *mesh, context);
           },
           [&](const protocol::BatchParams& p) -> json { return batch(p, context); },
           [&](const protocol::MeshListParams&) -> json {

@@ -48,6 +48,9 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands);
 /// Writes `text` to standard output if `out_path` is empty, else to `out_path` atomically.
 /// Throws FileError (WriteFailed) on any failure.
 void write_output(const std::string& text, const std::string& out_path);
+/// Writes `text` atomically to `out_path` if --out was on the command line (`out_given`: an
+/// empty path is then a FileError, not standard output), else to standard output.
+void write_result(const std::string& text, const std::string& out_path, bool out_given);
 
 /// Writes `text` to a temporary file in the directory of `path`, flushes it to disk and renames
 /// it over `path`: readers see the old content or the whole new one, never half a file. On
@@ -63,9 +66,14 @@ void validate_point(const std::string& option, const std::string& text, const Su
 std::string check_radius(const std::string& text);
 /// %.17g, with infinity spelt `inf` whatever the C library does.
 void append_number(std::string& out, double value);
+/// The words separated by single spaces ("v:0 v:5").
+std::string join_words(const std::vector<std::string>& words);
 
 /// Adds the query commands on a built graph (`distance`, `field`, `eval`).
 void add_query_commands(CLI::App& app, std::vector<Command>& commands);
+
+/// Adds `expmap` and `spline` (clients/cli/application_commands.cpp).
+void add_application_commands(CLI::App& app, std::vector<Command>& commands);
 
 /// Adds `remote`, the client of a geoproxd daemon (clients/cli/client_commands.cpp).
 void add_client_commands(CLI::App& app, std::vector<Command>& commands);

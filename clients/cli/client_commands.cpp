@@ -1,7 +1,8 @@
 // `geoprox remote ...`: the command-line client of a geoproxd daemon (issue 6, section 1),
 // through the C++ client library (clients/cpp/geoprox_client.h). The offline `distance` and
 // `field` commands (query_commands.cpp) stay as they are; everything that talks to a daemon is
-// under `remote`.
+// under `remote`. `field --out` and `path --out` write result files (issue 6, section 2): the
+// daemon does not send mesh geometry, so `field --out` reads a local copy (--mesh-file).
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdint>
@@ -14,7 +15,10 @@
 #include <vector>
 
 #include "clients/cli/cli.h"
+#include "clients/cli/result_files.h"
 #include "clients/cpp/geoprox_client.h"
+#include "core/errors.h"
+#include "core/mesh_io.h"
 
 namespace geoprox::cli {
 namespace {
@@ -40,6 +44,8 @@ struct RemoteArgs {
   std::vector<std::string> targets;
   std::optional<double> cutoff;
   bool csv = false;
+  std::string out;        ///< field: PLY file, path: OBJ file, written instead of stdout
+  std::string mesh_file;  ///< field --out: local copy of the daemon's mesh (for its geometry)
 };
 
 void add_common(CLI::App* command, Common& common) {
@@ -153,7 +159,55 @@ std::string format_result(const std::string& command, const RemoteArgs& args,
   return out;
 }
 
+std::vector<double> field_distances(const nlohmann::json& result) {
+  std::vector<double> distances;
+  for (const auto& d : result.at("distances")) {
+    distances.push_back(d.is_number() ? d.get<double>() : HUGE_VAL);  // null: not reached
+  }
+  return distances;
+}
+
+/// Writes the result of `field` or `path` to args.out (see the commands' --help).
+void write_result_file(const std::string& command, const RemoteArgs& args,
+                       const nlohmann::json& result, const std::optional<TriangleMesh>& mesh) {
+  const std::string daemon = args.common.host + ":" + std::to_string(args.common.port);
+  if (command == "field") {
+    const std::vector<double> distances = field_distances(result);
+    if (distances.size() != mesh->num_vertices()) {
+      throw InvalidInput("MeshMismatch",
+                         "--mesh-file " + args.mesh_file + " has " +
+                             std::to_string(mesh->num_vertices()) + " vertices but the daemon's '" +
+                             args.mesh + "' has " + std::to_string(distances.size()) +
+                             ": not the same mesh");
+    }
+    write_field_ply(args.out, *mesh, distances,
+                    {"geoprox remote field of " + args.mesh + " from " + join_words(args.sources) +
+                     " (daemon " +
+                     daemon + ", geometry from " + args.mesh_file + ")"});
+    print_diagnostic("field",
+                     "wrote " + args.out + " (" + field_file_summary(*mesh, distances) + ")");
+    return;
+  }
+  std::vector<Vec3> points;
+  for (const auto& point : result.at("points")) {
+    const auto& p = point.at("position");
+    points.push_back({p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>()});
+  }
+  std::string distance;
+  append_number(distance, result.at("distance").get<double>());
+  const std::string summary =
+      "distance " + distance + ", " + std::to_string(points.size()) + " points";
+  write_path_obj(args.out, points,
+                 {"geoprox remote path on " + args.mesh + " from " + args.source + " to " +
+                      args.target + " (daemon " + daemon + ")",
+                  summary + " (mesh units)"});
+  print_diagnostic("path", "wrote " + args.out + " (" + summary + ")");
+}
+
 void run_remote(const std::string& command, const RemoteArgs& args) {
+  // The local mesh first: a wrong --mesh-file fails before anything is asked of the daemon.
+  std::optional<TriangleMesh> mesh;
+  if (command == "field" && !args.out.empty()) mesh.emplace(load_mesh(args.mesh_file));
   client::Options options;
   options.connect_timeout_ms = args.common.timeout_ms;
   options.read_timeout_ms = args.common.timeout_ms;
@@ -178,7 +232,11 @@ void run_remote(const std::string& command, const RemoteArgs& args) {
     } else {
       result = args.mesh.empty() ? client.server_info() : client.mesh_info(args.mesh);
     }
-    print(format_result(command, args, result));
+    if (args.out.empty()) {
+      print(format_result(command, args, result));
+    } else {
+      write_result_file(command, args, result, mesh);
+    }
     return;
   } catch (const client::ServerError& e) {
     exit_code = kExitServer;
@@ -244,16 +302,27 @@ void add_client_commands(CLI::App& app, std::vector<Command>& commands) {
   path->add_option("MESH_ID", args->mesh, "Mesh id on the daemon")->required();
   path->add_option("SOURCE", args->source, "Source point")->required();
   path->add_option("TARGET", args->target, "Target point")->required();
+  path->add_option("-o,--out", args->out,
+                   "Write the path as an OBJ polyline ('v X Y Z' per point, one 'l' line)\n"
+                   "instead of printing it");
 
   CLI::App* field = add("field", "Distance of every vertex from the nearest source",
                         point_help +
                             "\nOutput: one distance per vertex in vertex order ('inf' where not\n"
-                            "reached); with --csv 'VERTEX,DISTANCE[,NEAREST_SOURCE]'.");
+                            "reached); with --csv 'VERTEX,DISTANCE[,NEAREST_SOURCE]'.\n" +
+                            field_ply_footer() +
+                            "\nThe daemon sends distances only: --out needs --mesh-file, a local\n"
+                            "copy of the mesh file the daemon serves (same vertices, same order).");
   field->add_option("MESH_ID", args->mesh, "Mesh id on the daemon")->required();
   field->add_option("SOURCE", args->sources, "Source point(s)")->required();
   field->add_option("--cutoff", args->cutoff, "Vertices farther than this are not reached")
       ->check(CLI::PositiveNumber);
   field->add_flag("--csv", args->csv, "Comma-separated lines with the vertex index");
+  CLI::Option* mesh_file =
+      field->add_option("--mesh-file", args->mesh_file,
+                        "Local copy of the daemon's mesh file: its geometry, for --out");
+  field->add_option("-o,--out", args->out, "Write the mesh with the field as a PLY file instead")
+      ->needs(mesh_file);
 
   CLI::App* matrix = add("matrix", "Distances from every source to every target",
                          point_help +

@@ -17,6 +17,7 @@
 #include "core/intrinsic_geometry.h"
 #include "core/mesh_io.h"
 #include "core/proximity_graph.h"
+#include "core/riemannian_metric.h"
 
 namespace geoprox::cli {
 
@@ -32,12 +33,14 @@ struct BuildArgs {
   int threads = 0;
   std::string sampling = "auto";
   std::string export_text;
+  std::string metric;  ///< Riemannian metric side file; empty: the mesh's own lengths
   bool quiet = false;
 };
 
 struct InspectArgs {
   std::string file;
   std::string verify_mesh;
+  std::string metric;
   bool verify_given = false;
 };
 
@@ -116,7 +119,7 @@ void run_build(const BuildArgs& args) {
   }
   const auto start = std::chrono::steady_clock::now();
   const TriangleMesh mesh = load_mesh(args.mesh);
-  const IntrinsicGeometry geometry(mesh);
+  const IntrinsicGeometry geometry = load_geometry(mesh, args.metric);
   std::optional<GraphSizeForError> for_error;
   if (args.target_error != 0) {
     for_error = graph_size_for_error(mesh.num_faces(), args.target_error);
@@ -157,6 +160,7 @@ void run_build(const BuildArgs& args) {
   };
   add("mesh            %s (%zu vertices, %zu faces)\n", args.mesh.c_str(), mesh.num_vertices(),
       mesh.num_faces());
+  if (!args.metric.empty()) add("metric          %s\n", args.metric.c_str());
   add("samples         %u (m_P %u, sampling %s)\n", view.num_samples, view.neighbors,
       sampling_name(graph.stats.sampling_used));
   add("graph edges     %zu (directed, symmetric)\n", view.num_edges());
@@ -221,9 +225,10 @@ void run_inspect(const InspectArgs& args) {
   add("open time       %.2f ms\n", open_ms);
   if (args.verify_given) {
     const TriangleMesh mesh = load_mesh(args.verify_mesh);
-    const IntrinsicGeometry geometry(mesh);
+    const IntrinsicGeometry geometry = load_geometry(mesh, args.metric);
     file.verify_mesh(mesh, geometry);
-    add("verify          %s matches\n", args.verify_mesh.c_str());
+    add("verify          %s matches%s%s\n", args.verify_mesh.c_str(),
+        args.metric.empty() ? "" : " under the metric ", args.metric.c_str());
   }
   write_output(out, "");
 }
@@ -255,6 +260,9 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
       ->check(CLI::IsMember({"auto", "fmm", "exact"}));
   build->add_option("--export-text", build_args->export_text,
                     "also write the paper's text format (§2.2) to this file");
+  build->add_option("--metric", build_args->metric,
+                    "Riemannian metric side file (docs/metrics.md): the graph is built on its "
+                    "edge lengths and is then valid only with the same metric");
   build->add_flag("-q,--quiet", build_args->quiet, "no progress display");
   commands.push_back({build, [build_args] { run_build(*build_args); }});
 
@@ -265,6 +273,9 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
   inspect->add_option("file", inspect_args->file, "graph file")->required();
   inspect->add_option("--verify", inspect_args->verify_mesh, "mesh file to check against")
       ->each([inspect_args](const std::string&) { inspect_args->verify_given = true; });
+  inspect->add_option("--metric", inspect_args->metric,
+                      "with --verify: the Riemannian metric the graph was built with")
+      ->needs("--verify");
   commands.push_back({inspect, [inspect_args] { run_inspect(*inspect_args); }});
 }
 

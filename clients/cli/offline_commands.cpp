@@ -1,6 +1,6 @@
 // Offline commands of `geoprox`, which call geoprox::core directly (no daemon):
 //   geoprox info MESH
-//   geoprox exact MESH --source POINT... [--radius R] [--to POINT] [--out FILE]
+//   geoprox exact MESH --source POINT... [--radius R] [--to POINT] [--metric FILE] [--out FILE]
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +18,7 @@
 #include "core/mesh.h"
 #include "core/mesh_io.h"
 #include "core/mesh_report.h"
+#include "core/riemannian_metric.h"
 #include "core/surface_point.h"
 
 namespace geoprox::cli {
@@ -31,6 +32,7 @@ struct ExactArgs {
   std::string mesh;
   std::vector<std::string> sources;
   std::string to;
+  std::string metric;  ///< Riemannian metric side file (docs/metrics.md); empty: none
   double radius = kInfinity;
   std::string out;
   bool out_given = false;  ///< --out was on the command line (an empty path is an error)
@@ -56,14 +58,6 @@ void append_direction(std::string& out, const char* label, const FaceDirection& 
   out += '\n';
 }
 
-void emit(const std::string& text, const ExactArgs& args) {
-  if (args.out_given) {
-    write_file_atomically(args.out, text);
-  } else {
-    write_output(text, "");
-  }
-}
-
 void run_exact(const ExactArgs& args) {
   // Syntax first, so a typo fails before a large mesh is loaded.
   std::vector<SurfacePoint> points;
@@ -76,7 +70,7 @@ void run_exact(const ExactArgs& args) {
   }
 
   const TriangleMesh mesh = load_mesh(args.mesh);
-  const IntrinsicGeometry geometry(mesh);
+  const IntrinsicGeometry geometry = load_geometry(mesh, args.metric);
   std::vector<GeodesicSource> sources;
   sources.reserve(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -99,7 +93,7 @@ void run_exact(const ExactArgs& args) {
       append_number(text, d <= args.radius ? d : kInfinity);  // beyond --radius: unreachable
       text += '\n';
     }
-    emit(text, args);
+    write_result(text, args.out, args.out_given);
     return;
   }
 
@@ -111,7 +105,7 @@ void run_exact(const ExactArgs& args) {
     // not reached: reported below as distance inf
   }
   if (!std::isfinite(distance) || distance > args.radius) {
-    emit("distance inf\npath 0\n", args);
+    write_result("distance inf\npath 0\n", args.out, args.out_given);
     print_diagnostic("unreachable",
                      to->to_string() + " is not reachable from the source" +
                          (sources.size() > 1 ? "s" : "") +
@@ -135,7 +129,7 @@ void run_exact(const ExactArgs& args) {
   }
   append_direction(text, "source_direction", path.direction_at_source);
   append_direction(text, "target_direction", path.direction_at_target);
-  emit(text, args);
+  write_result(text, args.out, args.out_given);
 }
 
 }  // namespace
@@ -164,6 +158,8 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
                     "Explore only up to this geodesic distance; farther vertices print inf")
       ->check(CLI::Validator(check_radius, "R>=0"));
   exact->add_option("-t,--to", exact_args->to, "Print the distance and path to this one point");
+  exact->add_option("--metric", exact_args->metric,
+                    "Riemannian metric side file (docs/metrics.md): distances are measured in it");
   exact->add_option("-o,--out", exact_args->out,
                     "Write to FILE (replaced atomically) instead of standard output");
   exact->footer(

@@ -39,6 +39,14 @@ void write_output(const std::string& text, const std::string& out_path) {
   }
 }
 
+void write_result(const std::string& text, const std::string& out_path, bool out_given) {
+  if (out_given) {
+    write_file_atomically(out_path, text);
+  } else {
+    write_output(text, "");
+  }
+}
+
 void write_file_atomically(const std::string& path, const std::string& text) {
   namespace fs = std::filesystem;
   const fs::path target(path);
@@ -127,6 +135,12 @@ void append_number(std::string& out, double value) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.17g", value);
   out += buf;
+}
+
+std::string join_words(const std::vector<std::string>& words) {
+  std::string out;
+  for (const std::string& word : words) out += (out.empty() ? "" : " ") + word;
+  return out;
 }
 
 }  // namespace geoprox::cli

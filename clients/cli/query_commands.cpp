@@ -1,5 +1,5 @@
-// `geoprox distance`, `geoprox field` and `geoprox eval`: queries on a built graph (issue 4),
-// calling core directly.
+// `geoprox distance`, `geoprox field`, `geoprox path`, `geoprox render` and `geoprox eval`:
+// queries on a built graph (issue 4; result files and pictures: issue 6), calling core directly.
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -17,13 +18,17 @@
 #include <vector>
 
 #include "clients/cli/cli.h"
+#include "clients/cli/render.h"
+#include "clients/cli/result_files.h"
 #include "core/errors.h"
 #include "core/exact_geodesic.h"
 #include "core/fast_marching.h"
+#include "core/exponential_map.h"
 #include "core/geodesic_query.h"
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
 #include "core/mesh_io.h"
+#include "core/riemannian_metric.h"
 
 namespace geoprox::cli {
 namespace {
@@ -73,8 +78,11 @@ struct LoadedGraph {
   MappedGraphFile file;
   std::unique_ptr<GeodesicQuery> query;
 
-  LoadedGraph(const std::string& mesh_path, const std::string& graph_path)
-      : mesh(load_mesh(mesh_path)), geometry(mesh), file(MappedGraphFile::open(graph_path)) {
+  LoadedGraph(const std::string& mesh_path, const std::string& graph_path,
+              const std::string& metric_path)
+      : mesh(load_mesh(mesh_path)),
+        geometry(load_geometry(mesh, metric_path)),
+        file(MappedGraphFile::open(graph_path)) {
     file.verify_mesh(mesh, geometry);
     query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view());
   }
@@ -110,15 +118,21 @@ void report_timings(const char* what, const std::vector<double>& ms) {
                ms.size(), what, quantile(ms, 0.5), quantile(ms, 0.99));
 }
 
+Vec3 position_of(const SurfacePoint& point, const TriangleMesh& mesh) {
+  const auto [face, bary] = point.in_face(mesh);
+  return mesh.face_point(face, bary);
+}
+
 // ---------------------------------------------------------------------------------------------
 // geoprox distance MESH --graph FILE --pairs PAIRS
 
 struct DistanceArgs {
+  std::string metric;  ///< --metric: the side file the graph was built with
   std::string mesh, graph, pairs;
 };
 
 void run_distance(const DistanceArgs& args) {
-  LoadedGraph g(args.mesh, args.graph);
+  LoadedGraph g(args.mesh, args.graph, args.metric);
   std::ifstream file;
   std::istream* in = &std::cin;
   if (args.pairs != "-") {
@@ -158,28 +172,52 @@ void run_distance(const DistanceArgs& args) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// geoprox field MESH --graph FILE --source P [--max-distance D]
+// geoprox field MESH --graph FILE --source P [--max-distance D] [--out FIELD.ply]
 
 struct FieldArgs {
+  std::string metric;  ///< --metric: the side file the graph was built with
   std::string mesh, graph;
   std::vector<std::string> sources;
   double max_distance = kInfinity;
   int threads = 1;
+  std::string out;
 };
 
-void run_field(const FieldArgs& args) {
-  LoadedGraph g(args.mesh, args.graph);
+std::vector<SurfacePoint> resolve_sources(const LoadedGraph& g,
+                                          const std::vector<std::string>& texts) {
   std::vector<SurfacePoint> sources;
-  for (const std::string& text : args.sources) {
+  for (const std::string& text : texts) {
     sources.push_back(resolve_point("--source", text, *g.query));
   }
+  return sources;
+}
+
+DistanceField compute_field(const LoadedGraph& g, const std::vector<SurfacePoint>& sources,
+                            double max_distance, int threads, double& elapsed_ms) {
   QueryScratch scratch = g.query->make_scratch();
   DistanceFieldOptions options;
-  options.max_distance = args.max_distance;
-  options.threads = args.threads;
+  options.max_distance = max_distance;
+  options.threads = threads;
   const auto start = Clock::now();
-  const DistanceField field = g.query->field(sources, scratch, options);
-  const double elapsed = ms_since(start);
+  DistanceField field = g.query->field(sources, scratch, options);
+  elapsed_ms = ms_since(start);
+  return field;
+}
+
+void run_field(const FieldArgs& args) {
+  LoadedGraph g(args.mesh, args.graph, args.metric);
+  double elapsed = 0;
+  const DistanceField field = compute_field(g, resolve_sources(g, args.sources),
+                                            args.max_distance, args.threads, elapsed);
+  if (!args.out.empty()) {
+    write_field_ply(args.out, g.mesh, field.distances,
+                    {"geoprox field of " + args.mesh + " from " + join_words(args.sources) +
+                     " (graph " + args.graph + ")"});
+    print_diagnostic("field", "wrote " + args.out + " (" +
+                                  field_file_summary(g.mesh, field.distances) + ")");
+    report_timings("fields", {elapsed});
+    return;
+  }
   std::string text;
   text.reserve(field.distances.size() * 24);
   for (double d : field.distances) {
@@ -191,9 +229,141 @@ void run_field(const FieldArgs& args) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// geoprox path MESH --graph FILE --source P --target Q [--out PATH.obj]
+
+struct PathArgs {
+  std::string metric;  ///< --metric: the side file the graph was built with
+  std::string mesh, graph, source, target, out;
+};
+
+void run_path(const PathArgs& args) {
+  LoadedGraph g(args.mesh, args.graph, args.metric);
+  const SurfacePoint s = resolve_point("--source", args.source, *g.query);
+  const SurfacePoint t = resolve_point("--target", args.target, *g.query);
+  QueryScratch scratch = g.query->make_scratch();
+  const auto start = Clock::now();
+  const PathResult path = g.query->path(s, t, scratch);  // Unreachable: exit 2
+  const double elapsed = ms_since(start);
+  std::vector<Vec3> points;
+  for (const PathPoint& p : path.points) points.push_back(p.position);
+  std::string distance;
+  append_number(distance, path.distance);
+  const std::string summary = "distance " + distance + ", " + std::to_string(points.size()) +
+                              " points, exact " + (path.exact ? "yes" : "no");
+  if (!args.out.empty()) {
+    write_path_obj(args.out, points,
+                   {"geoprox path on " + args.mesh + " from " + args.source + " to " +
+                        args.target + " (graph " + args.graph + ")",
+                    summary + " (mesh units)"});
+    print_diagnostic("path", "wrote " + args.out + " (" + summary + ")");
+  } else {
+    std::string text;
+    for (const Vec3& p : points) {
+      append_xyz(text, p);
+      text += '\n';
+    }
+    write_output(text, "");
+    print_diagnostic("path", summary);
+  }
+  report_timings("paths", {elapsed});
+}
+
+// ---------------------------------------------------------------------------------------------
+// geoprox render MESH --graph FILE --source P [--target Q] -o PICTURE.png
+
+struct RenderArgs {
+  std::string metric;  ///< --metric: the side file the graph was built with
+  std::string mesh, graph;
+  std::vector<std::string> sources;
+  std::string target;
+  std::string out;
+  std::string view = "30,20";
+  std::string up = "y";
+  double max_distance = kInfinity;
+  int threads = 1;
+  double decal_radius = 0;  ///< > 0: checkerboard through the exponential map of the source
+  int decal_squares = 8;    ///< squares across the decal's diameter
+  RenderOptions options;
+};
+
+/// CLI11 check for --view: "AZIMUTH,ELEVATION" in degrees, elevation within [-90, 90].
+std::string check_view(const std::string& text) {
+  double azimuth = 0, elevation = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf%c", &azimuth, &elevation, &tail) != 2 ||
+      !std::isfinite(azimuth) || !(elevation >= -90 && elevation <= 90)) {
+    return "must be AZIMUTH,ELEVATION in degrees (elevation -90..90), not '" + text + "'";
+  }
+  return {};
+}
+
+void run_render(const RenderArgs& args) {
+  LoadedGraph g(args.mesh, args.graph, args.metric);
+  const std::vector<SurfacePoint> sources = resolve_sources(g, args.sources);
+  std::optional<SurfacePoint> target;
+  if (!args.target.empty()) target = resolve_point("--target", args.target, *g.query);
+  double elapsed = 0;
+  const DistanceField field = compute_field(g, sources, args.max_distance, args.threads, elapsed);
+  RenderOptions options = args.options;
+  std::sscanf(args.view.c_str(), "%lf,%lf", &options.azimuth, &options.elevation);  // checked
+  options.up_axis = args.up == "x" ? 0 : args.up == "z" ? 2 : 1;
+
+  RenderScene scene;
+  for (const Vec3& p : g.mesh.positions()) scene.positions.push_back({p.x, p.y, p.z});
+  for (const Triangle& f : g.mesh.faces()) scene.triangles.push_back(f);
+  scene.values = field.distances;
+  for (const SurfacePoint& source : sources) {
+    const Vec3 p = position_of(source, g.mesh);
+    scene.markers.push_back({p.x, p.y, p.z});
+  }
+  std::string decal_note;
+  if (args.decal_radius > 0) {
+    // A decal (paper §6.1, Fig. 14): the graph exponential map of the first source gives every
+    // vertex within the radius its (u, v); the checkerboard is drawn through them.
+    ExponentialMapOptions map_options;
+    map_options.radius = args.decal_radius;
+    const ExponentialMapResult map = exponential_map(*g.query, sources.front(), map_options);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    scene.decal.assign(g.mesh.num_vertices(), {nan, nan});
+    for (const ExponentialMapVertex& m : map.vertices) scene.decal[m.vertex] = {m.u, m.v};
+    scene.decal_square = 2 * args.decal_radius / args.decal_squares;
+    decal_note = ", decal of " + std::to_string(map.vertices.size()) + " vertices";
+  }
+  std::string path_note;
+  if (target) {
+    QueryScratch scratch = g.query->make_scratch();
+    // Unreachable (exit 2) when the target is in another component.
+    const PathResult path = g.query->path(sources.front(), *target, scratch);
+    for (const PathPoint& p : path.points) {
+      scene.polyline.push_back({p.position.x, p.position.y, p.position.z});
+    }
+    const Vec3 p = position_of(*target, g.mesh);
+    scene.markers.push_back({p.x, p.y, p.z});
+    std::string distance;
+    append_number(distance, path.distance);
+    path_note = ", path of length " + distance;
+  }
+  write_png(args.out, render(scene, options));
+  const double max_value = max_finite(field.distances);
+  char text[200];
+  std::snprintf(text, sizeof text, "%dx%d, distances 0..%.6g, ", options.width, options.height,
+                max_value);
+  std::string lines = "no iso-lines";
+  if (options.isolines > 0) {
+    char every[80];
+    std::snprintf(every, sizeof every, "%d iso-lines every %.6g", options.isolines,
+                  max_value / (options.isolines + 1));
+    lines = every;
+  }
+  print_diagnostic("render",
+                   "wrote " + args.out + " (" + text + lines + path_note + decal_note + ")");
+}
+
+// ---------------------------------------------------------------------------------------------
 // geoprox eval MESH GRAPH: accuracy against the exact solver, and query timings.
 
 struct EvalArgs {
+  std::string metric;  ///< --metric: the side file the graph was built with
   std::string mesh, graph;
   std::size_t pairs = 1000;
   std::size_t fields = 2;
@@ -274,7 +444,7 @@ double fmm_at(const FastMarchingSolver& fmm, const TriangleMesh& mesh, const Sur
 
 void run_eval(const EvalArgs& args) {
   if (args.pairs == 0) throw InvalidInput("BadCount", "--pairs must be positive");
-  LoadedGraph g(args.mesh, args.graph);
+  LoadedGraph g(args.mesh, args.graph, args.metric);
   const TriangleMesh& mesh = g.mesh;
   const GeodesicQuery& query = *g.query;
   const AreaSampler sampler(g.geometry);
@@ -385,6 +555,21 @@ void run_eval(const EvalArgs& args) {
 
   const ErrorStats pair_err = error_stats(approx, reference);
   const ErrorStats pair_fmm = error_stats(fmm_values, reference);
+  // The pair behind the worst error, so that it can be looked at (`geoprox distance`, `path`).
+  std::size_t worst = 0;
+  double worst_error = -1;
+  for (std::size_t k = 0; k < approx.size(); ++k) {
+    if (!(reference[k] > 0) || !std::isfinite(reference[k]) || !std::isfinite(approx[k])) continue;
+    const double e = std::abs(approx[k] - reference[k]) / reference[k];
+    if (e > worst_error) {
+      worst_error = e;
+      worst = k;
+    }
+  }
+  const SurfacePoint& worst_s = sources[worst / per_source];
+  const SurfacePoint& worst_t = targets[worst / per_source][worst % per_source];
+  const std::string worst_pair = worst_error < 0 ? std::string("none")
+                                                 : worst_s.to_string() + " " + worst_t.to_string();
   const ErrorStats field_err = error_stats(field_approx, field_reference);
   const ErrorStats field_fmm_err = error_stats(field_fmm_values, field_reference);
   const ProximityGraphView view = g.file.view();
@@ -404,6 +589,10 @@ void run_eval(const EvalArgs& args) {
   add("distance error  mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
       100 * pair_err.mean, 100 * pair_err.p50, 100 * pair_err.p99, 100 * pair_err.max,
       pair_err.below_exact);
+  if (worst_error >= 0) {
+    add("worst pair      %s  (exact %.9g, graph %.9g, %.2f link radii apart)\n",
+        worst_pair.c_str(), reference[worst], approx[worst], reference[worst] / query.link_radius());
+  }
   if (args.fmm) {
     add("fast marching   mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%\n", 100 * pair_fmm.mean,
         100 * pair_fmm.p50, 100 * pair_fmm.p99, 100 * pair_fmm.max);
@@ -434,6 +623,7 @@ void run_eval(const EvalArgs& args) {
         "\"below_exact\":%zu},",
         static_cast<unsigned long long>(args.seed), pair_err.mean, pair_err.p50, pair_err.p99,
         pair_err.max, pair_err.below_exact);
+    add("\"worst_pair\":\"%s\",", json_escape(worst_pair).c_str());
     add("\"fmm_error\":{\"mean\":%.6g,\"p50\":%.6g,\"p99\":%.6g,\"max\":%.6g},", pair_fmm.mean,
         pair_fmm.p50, pair_fmm.p99, pair_fmm.max);
     add("\"fields\":%zu,\"field_error\":{\"mean\":%.6g,\"p99\":%.6g,\"max\":%.6g,"
@@ -450,6 +640,18 @@ void run_eval(const EvalArgs& args) {
   write_output(text, "");
 }
 
+/// --metric on a command that reads a graph: the graph's edge lengths must be the mesh's under
+/// that metric (docs/metrics.md), else opening it fails with MeshMismatch.
+void add_metric_option(CLI::App& command, std::string& metric) {
+  command.add_option("--metric", metric,
+                     "Riemannian metric side file the graph was built with (docs/metrics.md)");
+}
+
+void add_graph_options(CLI::App& command, std::string& graph, std::string& metric) {
+  command.add_option("-g,--graph", graph, "Graph file from 'geoprox build'")->required();
+  add_metric_option(command, metric);
+}
+
 }  // namespace
 
 void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
@@ -462,8 +664,7 @@ void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
   CLI::App* distance =
       app.add_subcommand("distance", "Graph distances between pairs of points (one per line)");
   distance->add_option("MESH", distance_args->mesh, mesh_help)->required();
-  distance->add_option("-g,--graph", distance_args->graph, "Graph file from 'geoprox build'")
-      ->required();
+  add_graph_options(*distance, distance_args->graph, distance_args->metric);
   distance
       ->add_option("--pairs", distance_args->pairs,
                    "File of lines 'SOURCE TARGET' ('-' for standard input)")
@@ -478,8 +679,7 @@ void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
   CLI::App* field =
       app.add_subcommand("field", "Graph distance field: distance of every vertex from a source");
   field->add_option("MESH", field_args->mesh, mesh_help)->required();
-  field->add_option("-g,--graph", field_args->graph, "Graph file from 'geoprox build'")
-      ->required();
+  add_graph_options(*field, field_args->graph, field_args->metric);
   field
       ->add_option("-s,--source", field_args->sources,
                    "Source point(s); with several, the distance to the nearest")
@@ -491,17 +691,99 @@ void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
       ->check(CLI::Validator(check_radius, "D>=0"));
   field->add_option("--threads", field_args->threads, "Threads for the per-vertex pass")
       ->check(CLI::Range(1, 256));
+  field->add_option("-o,--out", field_args->out,
+                    "Write the mesh with the field as a PLY file instead (see below)");
   field->footer(point_help +
                 "\nOutput: one distance per vertex in vertex order (%.17g, 'inf' where\n"
-                "unreachable). Timing on stderr.\n\n" +
-                exit_code_footer());
+                "unreachable). Timing on stderr.\n" +
+                field_ply_footer() + "\n\n" + exit_code_footer());
   commands.push_back({field, [field_args] { run_field(*field_args); }});
+
+  auto path_args = std::make_shared<PathArgs>();
+  CLI::App* path = app.add_subcommand("path", "Shortest path between two points on a graph");
+  path->add_option("MESH", path_args->mesh, mesh_help)->required();
+  add_graph_options(*path, path_args->graph, path_args->metric);
+  path->add_option("-s,--source", path_args->source, "Source point")->required();
+  path->add_option("-t,--target", path_args->target, "Target point")->required();
+  path->add_option("-o,--out", path_args->out,
+                   "Write the path as an OBJ polyline instead of printing its points");
+  path->footer(point_help +
+               "\nOutput: one 'X Y Z' line per path point from the source to the target\n"
+               "(%.17g): the source, every edge crossing, the target. On stderr: 'geoprox: path:\n"
+               "distance D, N points, exact yes|no' and the timing. Points in different\n"
+               "components have no path: error [Unreachable], exit 2.\n"
+               "--out FILE: a Wavefront OBJ (Blender, MeshLab): one 'v X Y Z' line per point and\n"
+               "one 'l 1 2 ... N' line; nothing on stdout.\n\n" +
+               exit_code_footer());
+  commands.push_back({path, [path_args] { run_path(*path_args); }});
+
+  auto render_args = std::make_shared<RenderArgs>();
+  CLI::App* render_command = app.add_subcommand(
+      "render", "Draw a PNG of the mesh coloured by a distance field, with iso-lines and a path");
+  render_command->add_option("MESH", render_args->mesh, mesh_help)->required();
+  add_graph_options(*render_command, render_args->graph, render_args->metric);
+  render_command
+      ->add_option("-s,--source", render_args->sources,
+                   "Source point(s) of the distance field (drawn as white dots)")
+      ->required()
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  render_command->add_option("-t,--target", render_args->target,
+                             "Also draw the shortest path from the first source to this point");
+  render_command->add_option("-o,--out", render_args->out, "PNG file to write")->required();
+  render_command->add_option("--width", render_args->options.width, "Picture width in pixels")
+      ->check(CLI::Range(1, 8192))
+      ->capture_default_str();
+  render_command->add_option("--height", render_args->options.height, "Picture height in pixels")
+      ->check(CLI::Range(1, 8192))
+      ->capture_default_str();
+  render_command
+      ->add_option("--view", render_args->view,
+                   "AZIMUTH,ELEVATION in degrees: where the camera looks from")
+      ->check(CLI::Validator(check_view, "AZ,EL"))
+      ->capture_default_str();
+  render_command->add_option("--up", render_args->up, "The mesh's up axis")
+      ->check(CLI::IsMember({"x", "y", "z"}))
+      ->capture_default_str();
+  render_command
+      ->add_option("--isolines", render_args->options.isolines,
+                   "Iso-lines at N evenly spaced distances (0: none)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  render_command->add_option("--max-distance", render_args->max_distance,
+                             "Vertices farther than this are grey (unreachable)")
+      ->check(CLI::Validator(check_radius, "D>=0"));
+  render_command
+      ->add_option("--decal-radius", render_args->decal_radius,
+                   "Draw a checkerboard decal through the exponential map of the (first) source, "
+                   "out to this geodesic radius (paper Fig. 14); 0: none")
+      ->check(CLI::NonNegativeNumber);
+  render_command
+      ->add_option("--decal-squares", render_args->decal_squares,
+                   "Checkerboard squares across the decal's diameter")
+      ->check(CLI::Range(1, 1000));
+  render_command->add_option("--threads", render_args->threads, "Threads for the field")
+      ->check(CLI::Range(1, 256));
+  render_command->footer(
+      point_help +
+      "\nA software rasterizer (no display needed): orthographic view fitted to the mesh,\n"
+      "z-buffer, Gouraud shading under a headlight, 3x3 supersampling. --view 0,0 looks from\n"
+      "+z (up y), +x (up z) or +y (up x); the azimuth turns about the up axis, the elevation\n"
+      "raises the camera. Colours: viridis from 0 (dark purple) to the largest finite distance\n"
+      "(yellow); unreachable vertices grey (128,128,128). Iso-lines (dark) at k*max/(N+1),\n"
+      "k = 1..N. The path (with --target) is red with a dark outline, hidden where the mesh is\n"
+      "in front of it; sources and target are white dots; a target in another component\n"
+      "than the first source has no path: error [Unreachable], exit 2. The PNG (8-bit RGB)\n"
+      "is written atomically; one line on stderr says what was drawn.\n\n" +
+      exit_code_footer());
+  commands.push_back({render_command, [render_args] { run_render(*render_args); }});
 
   auto eval_args = std::make_shared<EvalArgs>();
   CLI::App* eval = app.add_subcommand(
       "eval", "Accuracy of graph queries against the exact solver, and their timings");
   eval->add_option("MESH", eval_args->mesh, mesh_help)->required();
   eval->add_option("GRAPH", eval_args->graph, "Graph file from 'geoprox build'")->required();
+  add_metric_option(*eval, eval_args->metric);
   eval->add_option("--pairs", eval_args->pairs, "Random point pairs (uniform by area)")
       ->check(CLI::PositiveNumber);
   eval->add_option("--fields", eval_args->fields, "Random sources for distance fields");

@@ -4,78 +4,61 @@
 # (1 usage, 2 input or output error). Also --help and --version.
 # Usage: bash errors_test.sh GEOPROX_BINARY REPO_ROOT
 set -euo pipefail
-geoprox=${1:?usage: errors_test.sh GEOPROX_BINARY REPO_ROOT}
-root=${2:?usage: errors_test.sh GEOPROX_BINARY REPO_ROOT}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-checks=0
-fail() { echo "FAIL (errors_test.sh): $*" >&2; exit 1; }
+# shellcheck source=lib.sh
+source "$(dirname "$0")/lib.sh"
+cli_test_setup "$@"
 
-# expect_error CODE PATTERN ARGS...: geoprox ARGS exits with CODE, prints nothing on stdout and
-# exactly one line on stderr that starts with "geoprox: error: " and matches PATTERN (ERE).
-expect_error() {
-  local code=$1 pattern=$2
-  shift 2
-  set +e
-  "$geoprox" "$@" >"$tmp/out" 2>"$tmp/err"
-  local rc=$?
-  set -e
-  local what="geoprox $*"
-  [ "$rc" -eq "$code" ] || fail "$what: exit $rc, expected $code; stderr: $(cat "$tmp/err")"
-  [ ! -s "$tmp/out" ] || fail "$what: printed on stdout: $(head -c 300 "$tmp/out")"
-  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$what: expected one line on stderr, got: $(cat "$tmp/err")"
-  grep -q '^geoprox: error: ' "$tmp/err" || fail "$what: stderr does not start with 'geoprox: error: ': $(cat "$tmp/err")"
-  grep -Eq -- "$pattern" "$tmp/err" || fail "$what: stderr does not match /$pattern/: $(cat "$tmp/err")"
-  checks=$((checks + 1))
-}
+# Every case: expect_geoprox_error_matching CODE PATTERN ARGS... (lib.sh): geoprox ARGS exits
+# with CODE, prints nothing on stdout and exactly one line on stderr that starts with
+# "geoprox: error: " and matches PATTERN (ERE).
 
 mesh="$tmp/square.obj"
 printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n' >"$mesh"
 "$geoprox" exact "$mesh" --source v:0 >/dev/null || fail "the test mesh itself does not work"
 
 # Usage errors: exit 1.
-expect_error 1 'subcommand'
-expect_error 1 'frobnicate' frobnicate
-expect_error 1 'source' exact "$mesh"
-expect_error 1 'MESH' info
-expect_error 1 'radius' exact "$mesh" --source v:0 --radius -1
-expect_error 1 'bogus' exact "$mesh" --source v:0 --bogus
+expect_geoprox_error_matching 1 'subcommand'
+expect_geoprox_error_matching 1 'frobnicate' frobnicate
+expect_geoprox_error_matching 1 'source' exact "$mesh"
+expect_geoprox_error_matching 1 'MESH' info
+expect_geoprox_error_matching 1 'radius' exact "$mesh" --source v:0 --radius -1
+expect_geoprox_error_matching 1 'bogus' exact "$mesh" --source v:0 --bogus
 
 # Missing and bad files: exit 2.
-expect_error 2 'no-such-file\.obj' info "$tmp/no-such-file.obj"
-expect_error 2 'no-such-file\.obj' exact "$tmp/no-such-file.obj" --source v:0
+expect_geoprox_error_matching 2 'no-such-file\.obj' info "$tmp/no-such-file.obj"
+expect_geoprox_error_matching 2 'no-such-file\.obj' exact "$tmp/no-such-file.obj" --source v:0
 printf 'this is not a mesh\n' >"$tmp/garbage.xyz"
-expect_error 2 'garbage\.xyz' info "$tmp/garbage.xyz"
+expect_geoprox_error_matching 2 'garbage\.xyz' info "$tmp/garbage.xyz"
 : >"$tmp/empty.obj"
-expect_error 2 '[Ee]mpty|no (faces|vertices)' info "$tmp/empty.obj"
+expect_geoprox_error_matching 2 '[Ee]mpty|no (faces|vertices)' info "$tmp/empty.obj"
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3 4\n' >"$tmp/quad.obj"
-expect_error 2 'face 0|triang|corner' info "$tmp/quad.obj"
+expect_geoprox_error_matching 2 'face 0|triang|corner' info "$tmp/quad.obj"
 printf 'v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n' >"$tmp/nan.obj"
-expect_error 2 '[Nn]a[Nn]|finite' exact "$tmp/nan.obj" --source v:0
+expect_geoprox_error_matching 2 '[Nn]a[Nn]|finite' exact "$tmp/nan.obj" --source v:0
 
 # Bad point syntax: exit 2, the message names the option and the text.
-expect_error 2 'source.*x:1' exact "$mesh" --source x:1
-expect_error 2 'source.*v:abc' exact "$mesh" --source v:abc
-expect_error 2 'source.*f:1:0\.5' exact "$mesh" --source f:1:0.5
-expect_error 2 'to.*e:0' exact "$mesh" --source v:0 --to e:0
-expect_error 2 'source.*v:-1' exact "$mesh" --source v:-1
-expect_error 2 'to' exact "$mesh" --source v:0 --to ''
+expect_geoprox_error_matching 2 'source.*x:1' exact "$mesh" --source x:1
+expect_geoprox_error_matching 2 'source.*v:abc' exact "$mesh" --source v:abc
+expect_geoprox_error_matching 2 'source.*f:1:0\.5' exact "$mesh" --source f:1:0.5
+expect_geoprox_error_matching 2 'to.*e:0' exact "$mesh" --source v:0 --to e:0
+expect_geoprox_error_matching 2 'source.*v:-1' exact "$mesh" --source v:-1
+expect_geoprox_error_matching 2 'to' exact "$mesh" --source v:0 --to ''
 # Syntax is checked before the mesh is read.
-expect_error 2 'x:1' exact "$tmp/no-such-file.obj" --source x:1
+expect_geoprox_error_matching 2 'x:1' exact "$tmp/no-such-file.obj" --source x:1
 
 # Ids out of range and bad coordinates: exit 2, the message names the id.
-expect_error 2 'face 9999.*out of range|FaceOutOfRange' exact "$mesh" --source f:9999:0.2:0.3:0.5
-expect_error 2 'vertex 4|VertexOutOfRange' exact "$mesh" --source v:4
-expect_error 2 'edge 77|EdgeOutOfRange' exact "$mesh" --source v:0 --to e:77:0.5
-expect_error 2 'BadBarycentric|barycentric' exact "$mesh" --source f:0:0.5:0.5:0.5
-expect_error 2 'BadEdgeParameter|parameter' exact "$mesh" --source e:0:1.5
+expect_geoprox_error_matching 2 'face 9999.*out of range|FaceOutOfRange' exact "$mesh" --source f:9999:0.2:0.3:0.5
+expect_geoprox_error_matching 2 'vertex 4|VertexOutOfRange' exact "$mesh" --source v:4
+expect_geoprox_error_matching 2 'edge 77|EdgeOutOfRange' exact "$mesh" --source v:0 --to e:77:0.5
+expect_geoprox_error_matching 2 'BadBarycentric|barycentric' exact "$mesh" --source f:0:0.5:0.5:0.5
+expect_geoprox_error_matching 2 'BadEdgeParameter|parameter' exact "$mesh" --source e:0:1.5
 
 # Output that cannot be written: exit 2, nothing created.
-expect_error 2 'no-such-dir' exact "$mesh" --source v:0 --out "$tmp/no-such-dir/d.txt"
+expect_geoprox_error_matching 2 'no-such-dir' exact "$mesh" --source v:0 --out "$tmp/no-such-dir/d.txt"
 [ ! -e "$tmp/no-such-dir" ] || fail "--out into a missing directory created something"
-expect_error 2 'out' exact "$mesh" --source v:0 --out ''
+expect_geoprox_error_matching 2 'out' exact "$mesh" --source v:0 --out ''
 mkdir "$tmp/adir"
-expect_error 2 'adir' exact "$mesh" --source v:0 --out "$tmp/adir"
+expect_geoprox_error_matching 2 'adir' exact "$mesh" --source v:0 --out "$tmp/adir"
 [ -z "$(ls -A "$tmp/adir")" ] || fail "--out onto a directory left files: $(ls -A "$tmp/adir")"
 checks=$((checks + 2))
 

@@ -4,35 +4,23 @@
 # (atomic, same bytes as stdout), --to (distance, path, directions) and unreachable points.
 # Usage: bash exact_test.sh GEOPROX_BINARY REPO_ROOT
 set -euo pipefail
-geoprox=${1:?usage: exact_test.sh GEOPROX_BINARY REPO_ROOT}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-checks=0
-fail() { echo "FAIL (exact_test.sh): $*" >&2; exit 1; }
-ok() { checks=$((checks + 1)); }
+# shellcheck source=lib.sh
+source "$(dirname "$0")/lib.sh"
+cli_test_setup "$@"
 
 # run CMD...: stdout -> $tmp/out, stderr -> $tmp/err, exit code -> $rc.
 run() { set +e; "$@" >"$tmp/out" 2>"$tmp/err"; rc=$?; set -e; }
 expect_success() {
   [ "$rc" -eq 0 ] || fail "$1: exit $rc, stderr: $(cat "$tmp/err")"
-  ok
+  pass
 }
 
-# A flat N x N grid of cells of size H on the tilted plane z = 0.3x - 0.2y. Vertex (i, j) has id
-# j*(N+1)+i; cell (i, j) (cell id j*N+i) has faces 2c = (a, b, c) and 2c+1 = (a, c, d) with
-# a=(i,j) b=(i+1,j) c=(i+1,j+1) d=(i,j+1). Edge 0 is face 0's first side, from v:0 to v:1.
+# A flat N x N grid of cells of size H on the tilted plane z = 0.3x - 0.2y (write_grid_obj in
+# lib.sh: vertex and face numbering). Edge 0 is face 0's first side, from v:0 to v:1.
 N=8
 H=0.25
 grid="$tmp/grid.obj"
-awk -v n=$N -v h=$H 'BEGIN {
-  print "# flat tilted grid"
-  for (j = 0; j <= n; j++) for (i = 0; i <= n; i++)
-    printf "v %.17g %.17g %.17g\n", i * h, j * h, 0.3 * i * h - 0.2 * j * h
-  for (j = 0; j < n; j++) for (i = 0; i < n; i++) {
-    a = j * (n + 1) + i + 1; b = a + 1; c = b + n + 1; d = a + n + 1
-    printf "f %d %d %d\nf %d %d %d\n", a, b, c, a, c, d
-  }
-}' >"$grid"
+write_grid_obj $N "$grid" $H 0.3 -0.2
 nv=$(((N + 1) * (N + 1)))
 
 # Position of a point given in geoprox syntax on the grid, as "x y z".
@@ -82,7 +70,7 @@ check_distances() {
     if (NR != nv) { printf "%d lines, expected %d (one per vertex)\n", NR, nv; bad++ }
     exit bad > 0
   }' "$file" >"$tmp/check" || fail "distances in $file: $(head -5 "$tmp/check")"
-  ok
+  pass
 }
 
 # Vertex, edge, face and multiple sources, full surface.
@@ -101,7 +89,7 @@ run "$geoprox" exact "$grid" --source v:40 --radius 0.6
 expect_success "exact --radius 0.6"
 check_distances "$tmp/out" 0.6 "$(position v:40)"
 grep -qx inf "$tmp/out" || fail "--radius 0.6 left no vertex unreachable"
-ok
+pass
 
 # --out writes exactly what stdout shows, leaves no temporary file, and replaces a file whole.
 run "$geoprox" exact "$grid" --source f:10:0.2:0.3:0.5
@@ -112,7 +100,7 @@ expect_success "exact --out"
 [ ! -s "$tmp/out" ] || fail "--out also printed to stdout"
 cmp -s "$tmp/stdout.txt" "$tmp/outdir/d.txt" || fail "--out file differs from stdout"
 [ "$(ls -A "$tmp/outdir")" = "d.txt" ] || fail "--out left other files: $(ls -A "$tmp/outdir")"
-ok
+pass
 run "$geoprox" exact "$grid" --source v:3 --out "$tmp/outdir/d.txt"
 expect_success "exact --out over an existing file"
 check_distances "$tmp/outdir/d.txt" inf "$(position v:3)"
@@ -121,7 +109,7 @@ run "$geoprox" exact "$grid" --source f:9999:0.2:0.3:0.5 --out "$tmp/outdir/d.tx
 [ "$rc" -ne 0 ] || fail "a failing run with --out exited 0"
 cmp -s "$tmp/before.txt" "$tmp/outdir/d.txt" || fail "a failing run changed the --out file"
 [ "$(ls -A "$tmp/outdir")" = "d.txt" ] || fail "a failing run left files: $(ls -A "$tmp/outdir")"
-ok
+pass
 
 # --to: distance, a path from the source to the target whose length is the distance, and two
 # unit directions. Output format: see `geoprox exact --help`.
@@ -156,7 +144,7 @@ check_path() {
     if (((px-T[1])^2 + (py-T[2])^2 + (pz-T[3])^2) > 1e-18) { print "path does not end at the target"; exit 1 }
     if (len - d > tol || d - len > tol) { printf "path length %.17g != distance %.17g\n", len, d; exit 1 }
   }' "$file" >"$tmp/check" || fail "--to $dst from $src: $(cat "$tmp/check")"
-  ok
+  pass
 }
 for pair in "v:0 v:80" "v:40 f:10:0.2:0.3:0.5" "f:77:0.6:0.1:0.3 e:0:0.25" "e:0:0.25 v:8"; do
   set -- $pair
@@ -170,7 +158,7 @@ done
 run "$geoprox" exact "$grid" --source v:5 --to v:5
 expect_success "exact --to the source itself"
 head -n 1 "$tmp/out" | grep -qx 'distance 0' || fail "distance from v:5 to itself: $(head -n 1 "$tmp/out")"
-ok
+pass
 
 # Two components: the other one is unreachable (inf), which is an answer (exit 0), not an error.
 two="$tmp/two.obj"
@@ -178,12 +166,12 @@ printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 0 0\nv 6 0 0\nv 5 1 0\nf 1 2 3\nf 4 5 6\n
 run "$geoprox" exact "$two" --source v:0
 expect_success "exact on two components"
 printf '0\n1\n1\ninf\ninf\ninf\n' | cmp -s - "$tmp/out" || fail "two components: got $(tr '\n' ' ' <"$tmp/out")"
-ok
+pass
 run "$geoprox" exact "$two" --source v:0 --to f:1:0.2:0.3:0.5
 expect_success "exact --to an unreachable point"
 printf 'distance inf\npath 0\n' | cmp -s - "$tmp/out" || fail "unreachable --to printed: $(cat "$tmp/out")"
 [ "$(wc -l <"$tmp/err")" -eq 1 ] && grep -q unreachable "$tmp/err" ||
   fail "unreachable --to: expected one stderr line saying unreachable, got: $(cat "$tmp/err")"
-ok
+pass
 
 echo "exact_test.sh: $checks checks passed"

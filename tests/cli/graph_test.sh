@@ -3,16 +3,11 @@
 # mesh, its statistics, verification against the right and a wrong mesh, and damaged files.
 # Usage: bash graph_test.sh GEOPROX_BINARY REPO_ROOT
 set -euo pipefail
-geoprox=${1:?usage: graph_test.sh GEOPROX_BINARY REPO_ROOT}
-root=${2:?usage: graph_test.sh GEOPROX_BINARY REPO_ROOT}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-checks=0
-fail() { echo "FAIL (graph_test.sh): $*" >&2; exit 1; }
-pass() { checks=$((checks + 1)); }
+# shellcheck source=lib.sh
+source "$(dirname "$0")/lib.sh"
+cli_test_setup "$@"
 
-spot="$root/data/meshes/spot.obj"
-[ -f "$spot" ] || fail "sample mesh $spot is missing"
+require_spot
 
 # Build with explicit parameters, twice with different thread counts: identical files.
 "$geoprox" build "$spot" -o "$tmp/a.geoprox" --samples 200 --neighbors 12 --threads 1 -q >"$tmp/build1" 2>"$tmp/err" ||

@@ -3,12 +3,9 @@
 # small generated meshes.
 # Usage: bash info_test.sh GEOPROX_BINARY REPO_ROOT
 set -euo pipefail
-geoprox=${1:?usage: info_test.sh GEOPROX_BINARY REPO_ROOT}
-root=${2:?usage: info_test.sh GEOPROX_BINARY REPO_ROOT}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-checks=0
-fail() { echo "FAIL (info_test.sh): $*" >&2; exit 1; }
+# shellcheck source=lib.sh
+source "$(dirname "$0")/lib.sh"
+cli_test_setup "$@"
 
 # report_has FILE WORD NUMBER: some line of the report names WORD and gives NUMBER.
 report_has() {
@@ -27,8 +24,7 @@ info() {
   [ -s "$tmp/report" ] || fail "geoprox info $1 printed nothing"
 }
 
-spot="$root/data/meshes/spot.obj"
-[ -f "$spot" ] || fail "sample mesh $spot is missing"
+require_spot
 info "$spot"
 report_has "$tmp/report" vertices 2930 spot.obj
 report_has "$tmp/report" faces 5856 spot.obj

@@ -4,65 +4,13 @@
 # error lines and exit codes (4 connection, 6 server error).
 # Usage: bash remote_test.sh GEOPROX_BINARY REPO_ROOT
 set -euo pipefail
-geoprox=${1:?usage: remote_test.sh GEOPROX_BINARY REPO_ROOT}
-root=${2:?usage: remote_test.sh GEOPROX_BINARY REPO_ROOT}
-geoproxd="$(cd "$(dirname "$geoprox")/../../server" && pwd)/geoproxd"
-tmp=$(mktemp -d)
-daemon_pid=
-mute_pid=
-cleanup() {
-  [ -n "$mute_pid" ] && kill "$mute_pid" 2>/dev/null
-  if [ -n "$daemon_pid" ] && kill -0 "$daemon_pid" 2>/dev/null; then
-    kill -TERM "$daemon_pid" 2>/dev/null || true
-    wait "$daemon_pid" 2>/dev/null || true
-  fi
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-checks=0
-fail() {
-  echo "FAIL (remote_test.sh): $*" >&2
-  [ -f "$tmp/daemon.log" ] && tail -5 "$tmp/daemon.log" >&2
-  exit 1
-}
-pass() { checks=$((checks + 1)); }
-
-spot="$root/data/meshes/spot.obj"
-[ -f "$spot" ] || fail "sample mesh $spot is missing"
-[ -x "$geoproxd" ] || fail "daemon $geoproxd is missing (build the geoproxd target)"
+# shellcheck source=lib.sh
+source "$(dirname "$0")/lib.sh"
+cli_test_setup "$@"
 
 # A small graph, used by the offline commands and served by the daemon.
-mkdir -p "$tmp/graphs"
-"$geoprox" build "$spot" -o "$tmp/graphs/spot.geoprox" --samples 200 --neighbors 12 -q \
-  >/dev/null 2>"$tmp/err" || fail "build failed: $(cat "$tmp/err")"
-cat >"$tmp/config.json" <<JSON
-{
-  "bind": "127.0.0.1",
-  "data_dir": "$root/data",
-  "graph_dir": "$tmp/graphs",
-  "compute_threads": 2,
-  "log_level": "warn",
-  "meshes": [
-    {"id": "spot", "mesh": "meshes/spot.obj", "graph": "$tmp/graphs/spot.geoprox",
-     "samples": 200, "neighbors": 12}
-  ]
-}
-JSON
-"$geoproxd" --config "$tmp/config.json" --port 0 --admin-port 0 --port-file "$tmp/port.json" \
-  >"$tmp/daemon.log" 2>&1 &
-daemon_pid=$!
-for _ in $(seq 100); do
-  [ -s "$tmp/port.json" ] && break
-  kill -0 "$daemon_pid" 2>/dev/null || fail "geoproxd exited at start"
-  sleep 0.1
-done
-[ -s "$tmp/port.json" ] || fail "geoproxd wrote no port file"
-port=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["port"])' "$tmp/port.json")
-export GEOPROX_HOST=127.0.0.1 GEOPROX_PORT=$port
-for _ in $(seq 100); do
-  "$geoprox" remote meshes >"$tmp/meshes" 2>/dev/null && grep -q '^spot  *ready' "$tmp/meshes" && break
-  sleep 0.1
-done
+build_spot_graph
+start_daemon
 grep -q '^spot  *ready  *100% *5856  *200$' "$tmp/meshes" || fail "spot not ready: $(cat "$tmp/meshes")"; pass
 head -1 "$tmp/meshes" | grep -q '^id  *state  *progress  *faces  *samples$' || fail "meshes header"; pass
 
@@ -70,7 +18,7 @@ head -1 "$tmp/meshes" | grep -q '^id  *state  *progress  *faces  *samples$' || f
 target=f:100:0.2:0.3:0.5
 "$geoprox" remote distance spot v:0 "$target" >"$tmp/remote" 2>"$tmp/err" ||
   fail "remote distance: $(cat "$tmp/err")"
-echo "v:0 $target" | "$geoprox" distance "$spot" --graph "$tmp/graphs/spot.geoprox" --pairs - \
+echo "v:0 $target" | "$geoprox" distance "$spot" --graph "$graph" --pairs - \
   >"$tmp/offline" 2>/dev/null || fail "offline distance failed"
 sed -n 2p "$tmp/remote" | grep -qE '^exact (yes|no)$' || fail "no 'exact yes|no': $(cat "$tmp/remote")"; pass
 python3 - "$tmp/remote" "$tmp/offline" <<'PY' || fail "remote and offline distances differ"
@@ -134,35 +82,23 @@ python3 -c 'import json,sys; r=json.load(sys.stdin); assert r["mesh"]=="spot" an
   < <("$geoprox" remote distance spot v:0 "$target" --json) || fail "distance --json content"; pass
 
 # Errors: one line, the reason in brackets, distinct exit codes.
-expect_error() {  # EXIT_CODE PATTERN ARGS...
-  local code=$1 pattern=$2; shift 2
-  set +e
-  "$geoprox" remote "$@" >"$tmp/out" 2>"$tmp/err"; local rc=$?
-  set -e
-  [ "$rc" -eq "$code" ] || fail "remote $*: exit $rc (expected $code): $(cat "$tmp/err")"
-  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "remote $*: not one line on stderr: $(cat "$tmp/err")"
-  grep -q '^geoprox: error: ' "$tmp/err" || fail "remote $*: no 'geoprox: error:' prefix"
-  grep -qF -- "$pattern" "$tmp/err" || fail "remote $*: expected $pattern, got: $(cat "$tmp/err")"
-  [ ! -s "$tmp/out" ] || fail "remote $*: wrote to stdout: $(cat "$tmp/out")"
-  pass
-}
-expect_error 6 '[UnknownMesh]' distance nope v:0 v:1
-expect_error 6 '[FaceOutOfRange]' distance spot v:0 f:99999:1:0:0
-expect_error 6 '[BadPoint]' path spot v:0 zz
-expect_error 6 '[UnknownMesh]' info nope
+expect_geoprox_error 6 '[UnknownMesh]' remote distance nope v:0 v:1
+expect_geoprox_error 6 '[FaceOutOfRange]' remote distance spot v:0 f:99999:1:0:0
+expect_geoprox_error 6 '[BadPoint]' remote path spot v:0 zz
+expect_geoprox_error 6 '[UnknownMesh]' remote info nope
 # A closed port: take a free port from the kernel and close it again.
 closed=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()')
-expect_error 4 '[ConnectionFailed]' meshes --port "$closed"
+expect_geoprox_error 4 '[ConnectionFailed]' remote meshes --port "$closed"
 # A listener that never answers: the reply times out (exit 5).
 python3 -c 'import socket,sys,time
 s=socket.socket(); s.bind(("127.0.0.1",0)); s.listen(8)
 open(sys.argv[1],"w").write(str(s.getsockname()[1])); time.sleep(20)' "$tmp/mute_port" &
-mute_pid=$!
+helper_pid=$!
 for _ in $(seq 50); do [ -s "$tmp/mute_port" ] && break; sleep 0.1; done
-expect_error 5 '[Timeout]' health --port "$(cat "$tmp/mute_port")" --timeout-ms 300
-kill "$mute_pid" 2>/dev/null || true
-wait "$mute_pid" 2>/dev/null || true
-mute_pid=
+expect_geoprox_error 5 '[Timeout]' remote health --port "$(cat "$tmp/mute_port")" --timeout-ms 300
+kill "$helper_pid" 2>/dev/null || true
+wait "$helper_pid" 2>/dev/null || true
+helper_pid=
 # Usage errors stay exit 1.
 set +e
 "$geoprox" remote distance spot v:0 >/dev/null 2>&1; rc=$?

@@ -339,5 +339,33 @@ TEST(MeshIoRefusal, ErrorsAreQuiet) {
   EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
 }
 
+// ---------------------------------------------------------------------------------------------
+// Inputs found by tests/fuzz/mesh_io_fuzzer, kept in tests/fuzz/regressions/mesh_io/: one
+// selector byte (0 .obj, 1 .off, 2 .ply, 3 .stl) then the file.
+
+/// Writes the file of reproducer `name` with the extension its selector byte names; returns
+/// its path (in the system's temporary directory).
+std::string fuzz_reproducer_file(const std::string& name) {
+  std::ifstream in(std::string(GEOPROX_SOURCE_DIR) + "/tests/fuzz/regressions/mesh_io/" + name,
+                   std::ios::binary);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  const std::string input = bytes.str();
+  EXPECT_FALSE(input.empty()) << "no reproducer " << name;
+  if (input.empty()) return test_file("no_such_reproducer.obj");
+  static const char* const kExtensions[] = {".obj", ".off", ".ply", ".stl"};
+  const std::string path = ::testing::TempDir() + "geoprox-fuzz-" + name +
+                           kExtensions[static_cast<unsigned char>(input[0]) % 4];
+  std::ofstream(path, std::ios::binary) << input.substr(1);
+  return path;
+}
+
+TEST(MeshIoFuzzRegression, PlyElementWithoutPropertiesIsRefused) {
+  // The header announces 4e9 records of an element with no properties: they take no bytes, so
+  // the scan looped over all of them (minutes under the sanitizers) before reading the faces.
+  expect_refusal<FileError>(fuzz_reproducer_file("ply-element-without-properties"),
+                            "ParseError", {":7:", "'junk'", "4000000000", "no properties"});
+}
+
 }  // namespace
 }  // namespace geoprox

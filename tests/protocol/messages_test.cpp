@@ -9,11 +9,13 @@
 #include <string>
 
 #include "protocol/base64.h"
+#include "tests/protocol/messages_test_support.h"
 
 namespace geoprox::protocol {
 namespace {
 
 using nlohmann::json;
+using test_support::expect_refused;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -23,19 +25,6 @@ T parse_as(Method method, const json& params, const Limits& limits = {},
   Params parsed = parse_params(method, params, limits, timeout);
   EXPECT_EQ(method_of(parsed), method);
   return std::get<T>(parsed);
-}
-
-void expect_refused(Method method, const json& params, ErrorReason reason,
-                    std::string_view fragment, const Limits& limits = {}) {
-  SCOPED_TRACE(std::string(method_name(method)) + " " + params.dump().substr(0, 300));
-  try {
-    parse_params(method, params, limits);
-    ADD_FAILURE() << "accepted";
-  } catch (const ProtocolError& error) {
-    EXPECT_EQ(error.reason(), reason) << error.what();
-    EXPECT_NE(std::string(error.what()).find(fragment), std::string::npos)
-        << "message '" << error.what() << "' lacks '" << fragment << "'";
-  }
 }
 
 json points(std::size_t count) {
@@ -56,7 +45,8 @@ TEST(Methods, NamesRoundTripAndAdminMethodsAreMarked) {
             (std::set<std::string_view>{
                 "geodesic.distance", "geodesic.path", "geodesic.field", "geodesic.matrix", "batch",
                 "mesh.list", "mesh.info", "server.info", "server.health", "server.metrics",
-                "admin.register", "admin.rebuild", "admin.unregister", "admin.reload"}));
+                "admin.register", "admin.rebuild", "admin.unregister", "admin.reload",
+                "geodesic.expmap", "geodesic.spline"}));
   EXPECT_FALSE(method_from_name("geodesic.Distance"));
   EXPECT_FALSE(method_from_name("rpc.discover"));
   for (Method method : all_methods()) {
@@ -452,6 +442,9 @@ TEST(ParamsJson, WhatClientsSendReadsBackTheSame) {
       {Method::AdminUnregister, R"({"mesh":"b","token":"t"})"},
       {Method::AdminReload, R"({"mesh":"b","token":"t"})"},
       {Method::AdminReload, R"({"token":"t"})"},
+      {Method::GeodesicExpmap, R"({"exact":true,"mesh":"spot","radius":0.5,"source":{"vertex":0}})"},
+      {Method::GeodesicSpline,
+       R"({"control":[{"vertex":0},{"vertex":1},{"vertex":2},{"vertex":3}],"mesh":"spot","samples":100,"type":"bspline"})"},
   };
   std::set<Method> covered;
   for (const auto& [method, text] : canonical) {

@@ -1,0 +1,243 @@
+// Tests of core/geodesic_spline: on a flat grid geodesic de Casteljau / de Boor are the planar
+// algorithms; on a curved mesh the curve interpolates the Bezier ends and lies on the surface.
+#include "core/geodesic_spline.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/errors.h"
+#include "core/exact_geodesic.h"
+#include "core/geodesic_query.h"
+#include "core/proximity_graph.h"
+#include "tests/core/application_test_support.h"
+#include "tests/core/test_meshes.h"
+#include "tests/core/test_support.h"
+
+namespace geoprox {
+namespace {
+
+using namespace test_meshes;
+using test_support::fmt;
+
+const TestMesh& grid() { return jittered_unit_grid(); }
+
+const GraphEnv& grid_env() {
+  static const GraphEnv env(grid(), 100, 8);
+  return env;
+}
+
+Vec3 planar_bezier(const std::vector<Vec3>& p, double t) {
+  const double s = 1 - t;
+  return (s * s * s) * p[0] + (3 * s * s * t) * p[1] + (3 * s * t * t) * p[2] + (t * t * t) * p[3];
+}
+
+/// Uniform cubic B-spline over all pieces, global parameter in [0, n - 3].
+Vec3 planar_bspline(const std::vector<Vec3>& p, double global) {
+  const std::size_t pieces = p.size() - 3;
+  const std::size_t i = std::min(static_cast<std::size_t>(global), pieces - 1);
+  const double t = global - static_cast<double>(i);
+  const double b0 = (1 - t) * (1 - t) * (1 - t) / 6, b1 = (3 * t * t * t - 6 * t * t + 4) / 6,
+               b2 = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6, b3 = t * t * t / 6;
+  return b0 * p[i] + b1 * p[i + 1] + b2 * p[i + 2] + b3 * p[i + 3];
+}
+
+std::vector<Vec3> positions_of(const TriangleMesh& mesh, const std::vector<SurfacePoint>& points) {
+  std::vector<Vec3> out;
+  for (const SurfacePoint& p : points) out.push_back(p.position(mesh));
+  return out;
+}
+
+double worst_planar_error(const GeodesicSplineResult& r, const std::vector<Vec3>& control,
+                          SplineType type) {
+  double worst = 0;
+  const std::size_t n = r.curve.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    Vec3 expected;
+    if (type == SplineType::Bezier) {
+      const double pieces = static_cast<double>((control.size() - 1) / 3);
+      const double s = pieces * static_cast<double>(k) / static_cast<double>(n - 1);
+      const std::size_t piece = std::min(static_cast<std::size_t>(s), (control.size() - 1) / 3 - 1);
+      const std::vector<Vec3> local(control.begin() + 3 * piece, control.begin() + 3 * piece + 4);
+      expected = planar_bezier(local, s - static_cast<double>(piece));
+    } else {
+      const double pieces = static_cast<double>(control.size() - 3);
+      expected = planar_bspline(control, pieces * static_cast<double>(k) / static_cast<double>(n - 1));
+    }
+    worst = std::max(worst, norm(r.curve[k].position - expected));
+  }
+  return worst;
+}
+
+const std::vector<SurfacePoint> kGridControl = {
+    SurfacePoint::vertex(26), SurfacePoint::face(900, 0.2, 0.3, 0.5), SurfacePoint::vertex(200),
+    SurfacePoint::edge(1500, 0.3), SurfacePoint::vertex(598), SurfacePoint::face(300, 0.6, 0.2, 0.2),
+    SurfacePoint::vertex(580)};
+
+TEST(GeodesicSpline, ExactGeodesicsOnAFlatGridGiveThePlanarCurves) {
+  const TriangleMesh& mesh = *grid().mesh;
+  GeodesicSpline spline(mesh, *grid().geometry);
+  const std::vector<Vec3> control = positions_of(mesh, kGridControl);
+  GeodesicSplineOptions options;
+  options.geodesics = SplineGeodesics::Exact;
+  options.samples = 41;
+  for (SplineType type : {SplineType::Bezier, SplineType::BSpline}) {
+    options.type = type;
+    for (std::size_t count : {std::size_t{4}, std::size_t{7}}) {
+      const std::vector<SurfacePoint> points(kGridControl.begin(), kGridControl.begin() + count);
+      const std::vector<Vec3> positions(control.begin(), control.begin() + count);
+      const GeodesicSplineResult r = spline.compute(points, options);
+      ASSERT_EQ(r.curve.size(), 41u);
+      ASSERT_EQ(r.control_polygon.size(), count - 1);
+      const double worst = worst_planar_error(r, positions, type);
+      EXPECT_LT(worst, 1e-9) << (type == SplineType::Bezier ? "bezier " : "bspline ") << count;
+      // Control polygon legs are straight: their points lie on the chord.
+      for (std::size_t i = 0; i + 1 < count; ++i) {
+        const Vec3 a = positions[i], b = positions[i + 1];
+        for (const PathPoint& p : r.control_polygon[i]) {
+          EXPECT_LT(norm(cross(p.position - a, b - a)) / norm(b - a), 1e-9);
+        }
+      }
+    }
+  }
+}
+
+TEST(GeodesicSpline, GraphGeodesicsOnAFlatGridStayCloseToThePlanarCurves) {
+  const GraphEnv& env = grid_env();
+  GeodesicSpline spline(env.query);
+  const std::vector<Vec3> control = positions_of(env.mesh, kGridControl);
+  GeodesicSplineOptions options;
+  options.samples = 41;
+  for (SplineType type : {SplineType::Bezier, SplineType::BSpline}) {
+    options.type = type;
+    const GeodesicSplineResult r = spline.compute(kGridControl, options);
+    const double worst = worst_planar_error(r, control, type);
+    // A graph path of length (1 + e) D between points D apart stays within the ellipse of
+    // semi-minor axis (D / 2) sqrt(2e + e^2) of the straight segment: with e ~ 1% and legs of
+    // ~0.5, a few hundredths of the 1 x 1 grid (measured: 0.036 Bezier, 0.057 B-spline).
+    EXPECT_LT(worst, 0.08) << (type == SplineType::Bezier ? "bezier" : "bspline");
+    RecordProperty(type == SplineType::Bezier ? "bezier_worst" : "bspline_worst", fmt(worst));
+  }
+}
+
+TEST(GeodesicSpline, BezierInterpolatesItsEndsAndJunctionsOnACurvedMesh) {
+  const TestMesh& spot = test_support::spot();
+  const GraphEnv env(spot, 0, 0);
+  GeodesicSpline spline(env.query);
+  // Control points close enough for the construction to be well defined (Nava-Yazdani &
+  // Polthier): a walk away from vertex 10 in steps of ~0.15 (spot is ~2.6 across).
+  std::vector<SurfacePoint> control = {SurfacePoint::vertex(10)};
+  {
+    ExactGeodesicSolver from_start(env.mesh, env.geometry), from_previous(env.mesh, env.geometry);
+    from_start.solve(control[0]);
+    for (int k = 1; k < 7; ++k) {
+      from_previous.solve(control.back());
+      std::int64_t best = -1;
+      for (std::uint32_t v = 0; v < env.mesh.num_vertices(); ++v) {
+        if (std::abs(from_previous.distance(v) - 0.15) < 0.03 &&
+            (best < 0 || from_start.distance(v) > from_start.distance(static_cast<std::uint32_t>(best)))) {
+          best = v;
+        }
+      }
+      ASSERT_GE(best, 0);
+      control.push_back(SurfacePoint::vertex(static_cast<std::uint32_t>(best)));
+    }
+  }
+  std::vector<Vec3> exact_curve;
+  for (SplineGeodesics geodesics : {SplineGeodesics::Exact, SplineGeodesics::Graph}) {
+    GeodesicSplineOptions options;
+    options.samples = 101;  // sample 50 is the junction at control point 3
+    options.geodesics = geodesics;
+    const GeodesicSplineResult r = spline.compute(control, options);
+    ASSERT_EQ(r.curve.size(), 101u);
+    EXPECT_EQ(r.curve.front().point.to_string(), control.front().to_string());
+    EXPECT_EQ(r.curve.back().point.to_string(), control.back().to_string());
+    EXPECT_EQ(r.curve[50].point.to_string(), control[3].to_string());
+    EXPECT_NE(r.curve[25].point.to_string(), r.curve[75].point.to_string());
+    // On the surface: every point is a valid surface point, its position is the point's.
+    double step = 0;
+    for (std::size_t k = 0; k < r.curve.size(); ++k) {
+      EXPECT_NO_THROW(r.curve[k].point.validate(env.mesh)) << k;
+      EXPECT_LT(norm(r.curve[k].position - r.curve[k].point.position(env.mesh)), 1e-12) << k;
+      if (k > 0) step = std::max(step, norm(r.curve[k].position - r.curve[k - 1].position));
+    }
+    // A continuous curve: a planar cubic moves at most 3 * (longest leg) per unit parameter,
+    // 50 samples per piece here; 1.5 of slack for curvature and graph paths.
+    double longest_leg = 0;
+    for (const auto& leg : r.control_polygon) {
+      double length = 0;
+      for (std::size_t k = 1; k < leg.size(); ++k) length += norm(leg[k].position - leg[k - 1].position);
+      longest_leg = std::max(longest_leg, length);
+    }
+    if (geodesics == SplineGeodesics::Exact) {
+      EXPECT_LT(step, 1.5 * 3 * longest_leg / 50) << "longest leg " << fmt(longest_leg);
+      for (const PathPoint& p : r.curve) exact_curve.push_back(p.position);
+    } else {
+      // Graph geodesics longer than the link radius go through samples and are a little off
+      // the exact ones (and may switch routes from one sample to the next): the curve stays
+      // near the exact curve.
+      double deviation = 0;
+      for (std::size_t k = 0; k < r.curve.size(); ++k) {
+        deviation = std::max(deviation, norm(r.curve[k].position - exact_curve[k]));
+      }
+      EXPECT_LT(deviation, 0.25 * longest_leg) << "longest leg " << fmt(longest_leg);
+      RecordProperty("graph_vs_exact_deviation", fmt(deviation));
+    }
+    // 6 control legs, then 3 geodesics per sample (fewer at the ends of pieces).
+    EXPECT_LE(r.geodesics, 6u + 3u * 101u);
+    EXPECT_GT(r.geodesics, 6u + 2u * 101u);
+  }
+}
+
+TEST(GeodesicSpline, PointAlongAPathByIntrinsicArcLength) {
+  const TriangleMesh& mesh = *grid().mesh;
+  const IntrinsicGeometry& geometry = *grid().geometry;
+  const SurfacePoint a = SurfacePoint::vertex(26), b = SurfacePoint::vertex(598);
+  const GeodesicPath path = exact_geodesic_path(mesh, geometry, a, b);
+  ASSERT_GT(path.points.size(), 5u);
+  const Vec3 pa = a.position(mesh), pb = b.position(mesh);
+  for (double u : {0.0, 0.1, 0.25, 0.5, 0.77, 1.0}) {
+    const SurfacePoint p = point_along_path(mesh, geometry, path.points, u);
+    EXPECT_NO_THROW(p.validate(mesh));
+    EXPECT_LT(norm(p.position(mesh) - ((1 - u) * pa + u * pb)), 1e-12) << u;
+  }
+  EXPECT_EQ(point_along_path(mesh, geometry, path.points, 0).to_string(), a.to_string());
+  EXPECT_EQ(point_along_path(mesh, geometry, path.points, 1).to_string(), b.to_string());
+  EXPECT_THROW(point_along_path(mesh, geometry, {}, 0.5), InvalidInput);
+}
+
+TEST(GeodesicSpline, RefusesBadInput) {
+  const TriangleMesh& mesh = *grid().mesh;
+  GeodesicSpline exact_only(mesh, *grid().geometry);
+  auto reason = [&](std::vector<SurfacePoint> control, GeodesicSplineOptions options) {
+    try {
+      exact_only.compute(control, options);
+    } catch (const InvalidInput& e) {
+      return e.reason();
+    }
+    return std::string("accepted");
+  };
+  GeodesicSplineOptions exact;
+  exact.geodesics = SplineGeodesics::Exact;
+  const std::vector<SurfacePoint> five(kGridControl.begin(), kGridControl.begin() + 5);
+  const std::vector<SurfacePoint> three(kGridControl.begin(), kGridControl.begin() + 3);
+  EXPECT_EQ(reason(five, exact), "BadControlPoints");  // Bezier: 3k + 1
+  exact.type = SplineType::BSpline;
+  EXPECT_EQ(reason(three, exact), "BadControlPoints");
+  EXPECT_EQ(reason(five, exact), "accepted");
+  exact.samples = 1;
+  EXPECT_EQ(reason(five, exact), "BadSamples");
+  exact.samples = 10;
+  EXPECT_EQ(reason({SurfacePoint::vertex(0), SurfacePoint::vertex(1), SurfacePoint::vertex(2),
+                    SurfacePoint::vertex(99999)},
+                   exact),
+            "VertexOutOfRange");
+  GeodesicSplineOptions graph;
+  EXPECT_EQ(reason(std::vector<SurfacePoint>(kGridControl.begin(), kGridControl.begin() + 4), graph),
+            "NoGraph");
+}
+
+}  // namespace
+}  // namespace geoprox
