@@ -157,6 +157,10 @@ TEST(SlowClientFaults, BlankLinesKeepAConnectionAliveAndLinesInPiecesArrive) {
   EXPECT_EQ(server.server->metrics().read_timeouts.load(), 0u);
 }
 
+// Not in sanitizer builds: with every descriptor in use, the sanitizer runtime cannot check
+// memory (sanitizer_common's IsAccessibleMemoryRange probes it through a pipe), so UBSan's vptr
+// check reports a false "invalid vptr" in std::shared_ptr and aborts. The normal build runs it.
+#ifndef __SANITIZE_ADDRESS__
 /// Lowers the soft limit on open files to `limit` while it lives.
 class FileLimit {
  public:
@@ -236,6 +240,7 @@ TEST(DescriptorFaults, AcceptingRecoversAfterRunningOutOfFileDescriptors) {
   Client other(server.port());
   EXPECT_EQ(other.result("server.health")["status"], "ok");
 }
+#endif  // __SANITIZE_ADDRESS__
 
 }  // namespace
 }  // namespace geoprox::server::testing
