@@ -415,6 +415,7 @@ struct ErrorStats {
   std::size_t count = 0;
   double mean = 0, p50 = 0, p99 = 0, max = 0;
   std::size_t below_exact = 0;  ///< answers below the exact distance by more than 1e-9 relative
+  std::size_t worst = SIZE_MAX;  ///< index of the answer with the largest error (SIZE_MAX: none)
 };
 
 ErrorStats error_stats(const std::vector<double>& approx, const std::vector<double>& exact) {
@@ -424,13 +425,16 @@ ErrorStats error_stats(const std::vector<double>& approx, const std::vector<doub
     if (!(exact[k] > 0) || !std::isfinite(exact[k]) || !std::isfinite(approx[k])) continue;
     const double e = (approx[k] - exact[k]) / exact[k];
     if (e < -1e-9) ++s.below_exact;
+    if (rel.empty() || std::abs(e) > s.max) {
+      s.max = std::abs(e);
+      s.worst = k;
+    }
     rel.push_back(std::abs(e));
   }
   s.count = rel.size();
   s.mean = mean(rel);
   s.p50 = quantile(rel, 0.5);
   s.p99 = quantile(rel, 0.99);
-  s.max = rel.empty() ? 0 : *std::max_element(rel.begin(), rel.end());
   return s;
 }
 
@@ -556,19 +560,10 @@ void run_eval(const EvalArgs& args) {
   const ErrorStats pair_err = error_stats(approx, reference);
   const ErrorStats pair_fmm = error_stats(fmm_values, reference);
   // The pair behind the worst error, so that it can be looked at (`geoprox distance`, `path`).
-  std::size_t worst = 0;
-  double worst_error = -1;
-  for (std::size_t k = 0; k < approx.size(); ++k) {
-    if (!(reference[k] > 0) || !std::isfinite(reference[k]) || !std::isfinite(approx[k])) continue;
-    const double e = std::abs(approx[k] - reference[k]) / reference[k];
-    if (e > worst_error) {
-      worst_error = e;
-      worst = k;
-    }
-  }
+  const std::size_t worst = pair_err.worst == SIZE_MAX ? 0 : pair_err.worst;
   const SurfacePoint& worst_s = sources[worst / per_source];
   const SurfacePoint& worst_t = targets[worst / per_source][worst % per_source];
-  const std::string worst_pair = worst_error < 0 ? std::string("none")
+  const std::string worst_pair = pair_err.worst == SIZE_MAX ? std::string("none")
                                                  : worst_s.to_string() + " " + worst_t.to_string();
   const ErrorStats field_err = error_stats(field_approx, field_reference);
   const ErrorStats field_fmm_err = error_stats(field_fmm_values, field_reference);
@@ -589,7 +584,7 @@ void run_eval(const EvalArgs& args) {
   add("distance error  mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
       100 * pair_err.mean, 100 * pair_err.p50, 100 * pair_err.p99, 100 * pair_err.max,
       pair_err.below_exact);
-  if (worst_error >= 0) {
+  if (pair_err.worst != SIZE_MAX) {
     add("worst pair      %s  (exact %.9g, graph %.9g, %.2f link radii apart)\n",
         worst_pair.c_str(), reference[worst], approx[worst], reference[worst] / query.link_radius());
   }
