@@ -61,6 +61,13 @@ inline double thread_cpu_ms() {
   return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
 }
 
+/// CPU time of the whole process in ms (all threads): the work of a multi-threaded call.
+inline double process_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
 /// Peak resident set size in MiB (VmHWM), or -1 if unavailable.
 inline double peak_rss_mib() {
   std::ifstream in("/proc/self/status");

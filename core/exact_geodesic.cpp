@@ -153,9 +153,17 @@ void ExactGeodesicSolver::pop() {
     const std::size_t first = 4 * i + 1;
     if (first >= n) break;
     std::size_t best = first;
-    const std::size_t end = std::min(first + 4, n);
-    for (std::size_t c = first + 1; c < end; ++c) {
-      if (queue_[c].key < queue_[best].key) best = c;
+    if (first + 4 <= n) {
+      // All four children: a tournament the compiler turns into conditional moves (which child
+      // is smallest is a coin toss, a branch on it mispredicted half the time).
+      const QueueEntry* c = &queue_[first];
+      const std::size_t left = c[1].key < c[0].key ? 1 : 0;
+      const std::size_t right = c[3].key < c[2].key ? 3 : 2;
+      best = first + (c[right].key < c[left].key ? right : left);
+    } else {
+      for (std::size_t c = first + 1; c < n; ++c) {
+        if (queue_[c].key < queue_[best].key) best = c;
+      }
     }
     if (!(queue_[best].key < last.key)) break;
     queue_[i] = queue_[best];

@@ -24,15 +24,46 @@ struct HeapEntry {
   bool operator>(const HeapEntry& other) const { return key > other.key; }
 };
 
-// A binary min-heap over a reused vector (std::push_heap with greater<>).
+// A 4-ary min-heap over a reused vector: half the depth of a binary one, the four children of
+// a node in one cache line, and the smallest child picked without a branch (which child wins is
+// a coin toss, a branch on it mispredicted half the time).
 void heap_push(std::vector<HeapEntry>& heap, HeapEntry entry) {
+  std::size_t i = heap.size();
   heap.push_back(entry);
-  std::push_heap(heap.begin(), heap.end(), std::greater<>{});
+  while (i > 0) {
+    const std::size_t parent = (i - 1) / 4;
+    if (!(entry.key < heap[parent].key)) break;
+    heap[i] = heap[parent];
+    i = parent;
+  }
+  heap[i] = entry;
 }
 HeapEntry heap_pop(std::vector<HeapEntry>& heap) {
-  std::pop_heap(heap.begin(), heap.end(), std::greater<>{});
-  const HeapEntry top = heap.back();
+  const HeapEntry top = heap.front();
+  const HeapEntry last = heap.back();
   heap.pop_back();
+  const std::size_t n = heap.size();
+  if (n == 0) return top;
+  std::size_t i = 0;
+  while (true) {
+    const std::size_t first = 4 * i + 1;
+    if (first >= n) break;
+    std::size_t best = first;
+    if (first + 4 <= n) {
+      const HeapEntry* c = &heap[first];
+      const std::size_t left = c[1].key < c[0].key ? 1 : 0;
+      const std::size_t right = c[3].key < c[2].key ? 3 : 2;
+      best = first + (c[right].key < c[left].key ? right : left);
+    } else {
+      for (std::size_t c = first + 1; c < n; ++c) {
+        if (heap[c].key < heap[best].key) best = c;
+      }
+    }
+    if (!(heap[best].key < last.key)) break;
+    heap[i] = heap[best];
+    i = best;
+  }
+  heap[i] = last;
   return top;
 }
 
@@ -75,6 +106,7 @@ struct QueryScratch::Impl {
                     std::vector<std::uint32_t>(num_samples)},
         settled_stamp{std::vector<std::uint32_t>(num_samples, 0),
                       std::vector<std::uint32_t>(num_samples, 0)},
+        potential(num_samples),
         origin(num_samples),
         link_stamp(num_samples, 0),
         link_slot(num_samples, 0) {}
@@ -85,8 +117,10 @@ struct QueryScratch::Impl {
       stamp[i] = generation;
       label[0][i] = label[1][i] = kInfinity;
       parent[0][i] = parent[1][i] = kFromQueryPoint;
+      potential[i] = kNoPotential;
     }
   }
+  static constexpr double kNoPotential = -kInfinity;  ///< not computed yet in this search
   double get(int side, std::uint32_t i) const {
     return stamp[i] == generation ? label[side][i] : kInfinity;
   }
@@ -112,6 +146,7 @@ struct QueryScratch::Impl {
   std::vector<std::int32_t> parent[2];        ///< previous sample, or kFromQueryPoint
   std::vector<std::uint32_t> parent_edge[2];  ///< graph edge it came through
   std::vector<std::uint32_t> settled_stamp[2];
+  std::vector<double> potential;  ///< goal direction: p(i), kNoPotential until computed
   std::vector<std::uint32_t> origin;  ///< fields: which source's links the label comes from
   std::vector<HeapEntry> heap[2];
   QueryLinks links_s, links_t;
@@ -458,8 +493,13 @@ double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& f
   const bool directed = euclidean_lower_bound_;
   auto potential = [&](std::uint32_t i) {
     if (!directed) return 0.0;
-    const Vec3& x = sample_positions_[i];
-    return 0.5 * (norm(x - s.target_position) - norm(x - s.source_position));
+    s.touch(i);
+    double& p = s.potential[i];  // two square roots, once per sample and search
+    if (p == QueryScratch::Impl::kNoPotential) {
+      const Vec3& x = sample_positions_[i];
+      p = 0.5 * (norm(x - s.target_position) - norm(x - s.source_position));
+    }
+    return p;
   };
   auto forward = [&](std::uint32_t i) { return potential(i); };
   auto backward = [&](std::uint32_t i) { return -potential(i); };

@@ -1,8 +1,12 @@
 #include "core/geodesic_spline.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <string>
 
 #include "core/exponential_map.h"  // canonical_surface_point
@@ -119,43 +123,75 @@ SurfacePoint point_along_path(const TriangleMesh& mesh, const IntrinsicGeometry&
   return path.back().point;  // rounding left `wanted` a hair beyond the sum
 }
 
+struct GeodesicSpline::Worker {
+  Worker(const TriangleMesh& mesh, const IntrinsicGeometry& geometry, const GeodesicQuery* query)
+      : scratch(query ? std::make_unique<QueryScratch>(query->make_scratch()) : nullptr),
+        solver(mesh, geometry) {}
+  std::unique_ptr<QueryScratch> scratch;  // graph mode only
+  ExactGeodesicSolver solver;
+  std::uint32_t geodesics = 0;
+};
+
 GeodesicSpline::GeodesicSpline(const GeodesicQuery& query)
-    : mesh_(&query.mesh()),
-      geometry_(&query.geometry()),
-      query_(&query),
-      scratch_(std::make_unique<QueryScratch>(query.make_scratch())),
-      solver_(query.mesh(), query.geometry()) {}
+    : mesh_(&query.mesh()), geometry_(&query.geometry()), query_(&query) {
+  workers_.push_back(std::make_unique<Worker>(*mesh_, *geometry_, query_));
+}
 
 GeodesicSpline::GeodesicSpline(const TriangleMesh& mesh, const IntrinsicGeometry& geometry)
-    : mesh_(&mesh), geometry_(&geometry), solver_(mesh, geometry) {}
+    : mesh_(&mesh), geometry_(&geometry) {
+  workers_.push_back(std::make_unique<Worker>(*mesh_, *geometry_, query_));
+}
 
 GeodesicSpline::~GeodesicSpline() = default;
 
 std::vector<PathPoint> GeodesicSpline::geodesic(const SurfacePoint& a, const SurfacePoint& b,
-                                                const Options& options) {
-  ++geodesics_;
-  if (options.geodesics == SplineGeodesics::Graph) {
-    return query_->path(a, b, *scratch_).points;
+                                                const Options& options, Worker& worker) const {
+  ++worker.geodesics;
+  if (options.geodesics == SplineGeodesics::Graph &&
+      norm(b.position(*mesh_) - a.position(*mesh_)) > query_->link_radius()) {
+    return query_->path(a, b, *worker.scratch).points;
   }
   ExactGeodesicOptions solve;
   solve.stop_after_targets = 1;
   solve.interrupt = options.interrupt;
   const GeodesicSource source{a, 0};
-  solver_.solve(std::span<const GeodesicSource>(&source, 1), std::span<const SurfacePoint>(&b, 1),
-                solve);
-  if (solver_.settled_targets().empty()) {
+  worker.solver.solve(std::span<const GeodesicSource>(&source, 1),
+                      std::span<const SurfacePoint>(&b, 1), solve);
+  if (worker.solver.settled_targets().empty()) {
     throw Unreachable("Unreachable", b.to_string() + " is not reachable from " + a.to_string() +
                                          " (another component)");
   }
-  return solver_.path_to(b).points;
+  return worker.solver.path_to(b).points;
 }
 
 SurfacePoint GeodesicSpline::lerp(const SurfacePoint& a, const SurfacePoint& b, double u,
-                                  const Options& options) {
+                                  const Options& options, Worker& worker) const {
   if (u <= 0) return a;
   if (u >= 1) return b;
-  const std::vector<PathPoint> path = geodesic(a, b, options);
+  const std::vector<PathPoint> path = geodesic(a, b, options, worker);
   return point_along_path(*mesh_, *geometry_, path, u);
+}
+
+SurfacePoint GeodesicSpline::curve_point(const GeodesicSplineResult& out, std::size_t pieces,
+                                         std::uint32_t k, const Options& options,
+                                         Worker& worker) const {
+  auto along = [&](std::size_t leg, double u) {
+    return point_along_path(*mesh_, *geometry_, out.control_polygon[leg], u);
+  };
+  const double s = static_cast<double>(pieces) * k / (options.samples - 1);
+  const std::size_t piece = std::min(static_cast<std::size_t>(s), pieces - 1);
+  const double t = std::clamp(s - static_cast<double>(piece), 0.0, 1.0);
+  if (options.type == SplineType::Bezier) {
+    const std::size_t i = 3 * piece;
+    const SurfacePoint q0 = along(i, t), q1 = along(i + 1, t), q2 = along(i + 2, t);
+    return lerp(lerp(q0, q1, t, options, worker), lerp(q1, q2, t, options, worker), t, options,
+                worker);
+  }
+  const std::size_t i = piece;
+  const SurfacePoint q1 = along(i, (t + 2) / 3), q2 = along(i + 1, (t + 1) / 3),
+                     q3 = along(i + 2, t / 3);
+  return lerp(lerp(q1, q2, (t + 1) / 2, options, worker), lerp(q2, q3, t / 2, options, worker), t,
+              options, worker);
 }
 
 GeodesicSplineResult GeodesicSpline::compute(std::span<const SurfacePoint> control,
@@ -179,38 +215,52 @@ GeodesicSplineResult GeodesicSpline::compute(std::span<const SurfacePoint> contr
   std::vector<SurfacePoint> points;
   points.reserve(n);
   for (const SurfacePoint& p : control) points.push_back(canonical_surface_point(*mesh_, p));
-  if (scratch_) scratch_->set_interrupt(options.interrupt);
-  geodesics_ = 0;
+  const int threads = std::max(
+      1, std::min(options.threads > 0 ? options.threads : omp_get_max_threads(),
+                  static_cast<int>(options.samples)));
+  while (workers_.size() < static_cast<std::size_t>(threads)) {
+    workers_.push_back(std::make_unique<Worker>(*mesh_, *geometry_, query_));
+  }
+  for (const auto& worker : workers_) {
+    worker->geodesics = 0;
+    if (worker->scratch) worker->scratch->set_interrupt(options.interrupt);
+  }
+  struct ClearInterrupts {  // on every way out: the scratch outlives `options`
+    std::vector<std::unique_ptr<Worker>>& workers;
+    ~ClearInterrupts() {
+      for (const auto& worker : workers) {
+        if (worker->scratch) worker->scratch->set_interrupt(nullptr);
+      }
+    }
+  } clear_interrupts{workers_};
 
   GeodesicSplineResult out;
   for (std::size_t i = 0; i + 1 < n; ++i) {
-    out.control_polygon.push_back(geodesic(points[i], points[i + 1], options));
+    out.control_polygon.push_back(geodesic(points[i], points[i + 1], options, *workers_[0]));
   }
-  auto along = [&](std::size_t leg, double u) {
-    return point_along_path(*mesh_, *geometry_, out.control_polygon[leg], u);
-  };
   const std::size_t pieces = options.type == SplineType::Bezier ? (n - 1) / 3 : n - 3;
-  out.curve.reserve(options.samples);
-  for (std::uint32_t k = 0; k < options.samples; ++k) {
-    if (options.interrupt) options.interrupt->check();
-    const double s = static_cast<double>(pieces) * k / (options.samples - 1);
-    const std::size_t piece = std::min(static_cast<std::size_t>(s), pieces - 1);
-    const double t = std::clamp(s - static_cast<double>(piece), 0.0, 1.0);
-    SurfacePoint c;
-    if (options.type == SplineType::Bezier) {
-      const std::size_t i = 3 * piece;
-      const SurfacePoint q0 = along(i, t), q1 = along(i + 1, t), q2 = along(i + 2, t);
-      c = lerp(lerp(q0, q1, t, options), lerp(q1, q2, t, options), t, options);
-    } else {
-      const std::size_t i = piece;
-      const SurfacePoint q1 = along(i, (t + 2) / 3), q2 = along(i + 1, (t + 1) / 3),
-                         q3 = along(i + 2, t / 3);
-      c = lerp(lerp(q1, q2, (t + 1) / 2, options), lerp(q2, q3, t / 2, options), t, options);
+  out.curve.resize(options.samples);
+  // The first exception of any thread is rethrown once all have stopped (none may leave an
+  // OpenMP region); the others skip their remaining points.
+  std::exception_ptr failure;
+  std::atomic<bool> failed = false;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(options.samples); ++k) {
+    if (failed.load(std::memory_order_relaxed)) continue;
+    try {
+      if (options.interrupt) options.interrupt->check();
+      Worker& worker = *workers_[static_cast<std::size_t>(omp_get_thread_num())];
+      const SurfacePoint c =
+          curve_point(out, pieces, static_cast<std::uint32_t>(k), options, worker);
+      out.curve[static_cast<std::size_t>(k)] = {c, c.position(*mesh_)};
+    } catch (...) {
+#pragma omp critical(geoprox_spline_failure)
+      if (!failure) failure = std::current_exception();
+      failed.store(true, std::memory_order_relaxed);
     }
-    out.curve.push_back({c, c.position(*mesh_)});
   }
-  out.geodesics = geodesics_;
-  if (scratch_) scratch_->set_interrupt(nullptr);
+  if (failure) std::rethrow_exception(failure);
+  for (const auto& worker : workers_) out.geodesics += worker->geodesics;
   return out;
 }
 

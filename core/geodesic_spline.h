@@ -13,8 +13,12 @@
 // The first level of both runs along the control polygon, whose geodesics are computed once and
 // returned; every sample then needs 3 more geodesics (levels 2 and 3).
 //
-// Geodesics come from the proximity graph (GeodesicQuery::path: exact below the link radius,
-// graph paths beyond it) or, in the exact mode, from the exact solver stopped at the target.
+// Geodesics come from the proximity graph or, in the exact mode, from the exact solver stopped
+// at the target. In the graph mode a pair closer in space than the link radius rho also gets
+// the exact solver: its cost grows with the pair's distance squared, while a graph path pays
+// two link pieces of about rho each, and the levels after the first mostly join close points.
+// Curve points are independent once the control polygon is known: Options::threads spreads
+// them over OpenMP threads, each with its own scratch.
 // The point at fraction u is found on the path polyline by intrinsic arc length (segment lengths
 // in the faces' intrinsic frames, so a Riemannian metric is honoured) and returned as a face,
 // edge or vertex point.
@@ -51,6 +55,10 @@ struct GeodesicSplineOptions {
   SplineGeodesics geodesics = SplineGeodesics::Graph;
   /// Polled between geodesics (and inside them); throws Interrupted. Not owned.
   const QueryInterrupt* interrupt = nullptr;
+  /// OpenMP threads over the curve points; 0 uses OpenMP's default, 1 runs inline (what the
+  /// daemon uses: one request per compute thread). Each thread beyond the first costs one
+  /// query scratch and one exact solver, made on first use and kept by the GeodesicSpline.
+  int threads = 1;
 };
 
 struct GeodesicSplineResult {
@@ -85,17 +93,18 @@ class GeodesicSpline {
   GeodesicSplineResult compute(std::span<const SurfacePoint> control, const Options& options);
 
  private:
+  struct Worker;  // one thread's scratch
   std::vector<PathPoint> geodesic(const SurfacePoint& a, const SurfacePoint& b,
-                                  const Options& options);
+                                  const Options& options, Worker& worker) const;
   SurfacePoint lerp(const SurfacePoint& a, const SurfacePoint& b, double u,
-                    const Options& options);
+                    const Options& options, Worker& worker) const;
+  SurfacePoint curve_point(const GeodesicSplineResult& out, std::size_t pieces, std::uint32_t k,
+                           const Options& options, Worker& worker) const;
 
   const TriangleMesh* mesh_;
   const IntrinsicGeometry* geometry_;
   const GeodesicQuery* query_ = nullptr;
-  std::unique_ptr<QueryScratch> scratch_;
-  ExactGeodesicSolver solver_;
-  std::uint32_t geodesics_ = 0;
+  std::vector<std::unique_ptr<Worker>> workers_;  // [0] made by the constructor
 };
 
 /// One-shot.

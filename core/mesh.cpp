@@ -8,12 +8,6 @@
 
 namespace geoprox {
 
-double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
-
 namespace {
 
 std::string describe_face(std::uint32_t f, const Triangle& t) {

@@ -131,6 +131,7 @@ void run_expmap(const ExpmapArgs& args) {
 struct SplineArgs : CommonArgs {
   std::string type = "bezier";
   std::uint32_t samples = 100;
+  int threads = 0;
   std::vector<std::string> control;
 };
 
@@ -148,6 +149,7 @@ void run_spline(const SplineArgs& args) {
   options.type = args.type == "bspline" ? SplineType::BSpline : SplineType::Bezier;
   options.samples = args.samples;
   options.geodesics = args.exact ? SplineGeodesics::Exact : SplineGeodesics::Graph;
+  options.threads = args.threads;
   const GeodesicSplineResult result = spline->compute(control, options);
   const double elapsed = ms_since(start);
   std::string text;
@@ -193,6 +195,9 @@ void add_application_commands(CLI::App& app, std::vector<Command>& commands) {
   spline->add_option("-t,--type", spline_args->type, "bezier (3k+1 control points) or bspline (>= 4)")
       ->check(CLI::IsMember({"bezier", "bspline"}));
   spline->add_option("-n,--samples", spline_args->samples, "Curve points, both ends included (>= 2)");
+  spline->add_option("--threads", spline_args->threads,
+                     "Threads over the curve points (default 0: all cores)")
+      ->check(CLI::NonNegativeNumber);
   spline->add_option("-c,--control", spline_args->control, "Control points: v:ID, e:ID:t or f:ID:b0:b1:b2")
       ->required()
       ->expected(1, -1);

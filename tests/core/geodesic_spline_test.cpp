@@ -188,6 +188,14 @@ TEST(GeodesicSpline, BezierInterpolatesItsEndsAndJunctionsOnACurvedMesh) {
     // 6 control legs, then 3 geodesics per sample (fewer at the ends of pieces).
     EXPECT_LE(r.geodesics, 6u + 3u * 101u);
     EXPECT_GT(r.geodesics, 6u + 2u * 101u);
+    // Curve points spread over 2 threads (each with its own scratch) are the same points.
+    options.threads = 2;
+    const GeodesicSplineResult r2 = spline.compute(control, options);
+    ASSERT_EQ(r2.curve.size(), r.curve.size());
+    for (std::size_t k = 0; k < r.curve.size(); ++k) {
+      EXPECT_EQ(r2.curve[k].point.to_string(), r.curve[k].point.to_string()) << k;
+    }
+    EXPECT_EQ(r2.geodesics, r.geodesics);
   }
 }
 
