@@ -69,7 +69,9 @@ constexpr std::array kReasons = {
     ErrorReasonInfo{R::ShuttingDown, "ShuttingDown", c::kShuttingDown, true,
                     "the server is draining for shutdown; retry on another instance"},
     ErrorReasonInfo{R::Unauthorized, "Unauthorized", c::kUnauthorized, false,
-                    "admin method without the right token, or admin methods are disabled"},
+                    "a query before server.auth on a server with a query token, a wrong "
+                    "server.auth token, or an admin method without the right admin token (or "
+                    "admin methods disabled)"},
     ErrorReasonInfo{R::Internal, "Internal", c::kInternalError, true,
                     "a bug or an unexpected failure in the server; the message says what"},
 };

@@ -38,13 +38,14 @@ constexpr std::array kMethods = {
     MethodEntry{Method::AdminReload, "admin.reload"},
     MethodEntry{Method::GeodesicExpmap, "geodesic.expmap"},
     MethodEntry{Method::GeodesicSpline, "geodesic.spline"},
+    MethodEntry{Method::ServerAuth, "server.auth"},
 };
 
 constexpr bool methods_follow_enum_order() {
   for (std::size_t i = 0; i < kMethods.size(); ++i) {
     if (static_cast<std::size_t>(kMethods[i].method) != i) return false;
   }
-  return static_cast<std::size_t>(Method::GeodesicSpline) + 1 == kMethods.size();
+  return static_cast<std::size_t>(Method::ServerAuth) + 1 == kMethods.size();
 }
 static_assert(methods_follow_enum_order(), "kMethods must list every Method in enum order");
 
@@ -207,10 +208,11 @@ Params parse_batch(const ObjectFields& fields, const Limits& limits) {
                                                             ": unknown method \"" +
                                                             detail::excerpt(entry.method) + "\"");
       }
-      if (*method == Method::Batch || is_admin_method(*method)) {
+      if (*method == Method::Batch || *method == Method::ServerAuth ||
+          is_admin_method(*method)) {
         entry_fields.fail("method", "\"" + entry.method +
                                         "\" cannot be batched (no nested batches, no admin "
-                                        "methods)");
+                                        "methods, no server.auth)");
       }
       static const json kNoParams = json::object();
       const json* params = entry_fields.find("params");
@@ -253,6 +255,10 @@ std::optional<Method> method_from_name(std::string_view name) {
 bool is_admin_method(Method method) {
   return method == Method::AdminRegister || method == Method::AdminRebuild ||
          method == Method::AdminUnregister || method == Method::AdminReload;
+}
+
+bool allowed_before_auth(Method method) {
+  return method == Method::ServerHealth || method == Method::ServerAuth;
 }
 
 bool is_valid_mesh_id(std::string_view id) {
@@ -429,6 +435,13 @@ Params parse_params(Method method, const json& params, const Limits& limits,
       finish(fields);
       return ServerMetricsParams{};
     }
+    case Method::ServerAuth: {
+      // Messages never quote the token: error replies and logs must not carry it.
+      const ObjectFields fields(params, "params", {"token", "timeout_ms"});
+      ServerAuthParams parsed{fields.require_string("token")};
+      finish(fields);
+      return parsed;
+    }
     case Method::AdminRegister: {
       const ObjectFields fields(
           params, "params", {"token", "mesh", "mesh_file", "graph_file", "build", "timeout_ms"});
@@ -566,6 +579,7 @@ json params_json(const MeshListParams&) { return json::object(); }
 json params_json(const ServerInfoParams&) { return json::object(); }
 json params_json(const ServerHealthParams&) { return json::object(); }
 json params_json(const ServerMetricsParams&) { return json::object(); }
+json params_json(const ServerAuthParams& p) { return {{"token", p.token}}; }
 json params_json(const AdminRegisterParams& p) {
   json out = {{"token", p.token}, {"mesh", p.mesh}, {"mesh_file", p.mesh_file}};
   if (p.graph_file) out["graph_file"] = *p.graph_file;
@@ -818,7 +832,12 @@ void to_json(json& out, const HealthResult& result) {
   out = {
       {"status", health_status_name(result.status)}, {"ready", result.status == HealthStatus::Ok},
       {"meshes_ready", result.meshes_ready},         {"meshes_total", result.meshes_total},
-      {"uptime_seconds", result.uptime_seconds},     {"in_flight", result.in_flight}};
+      {"uptime_seconds", result.uptime_seconds},     {"in_flight", result.in_flight},
+      {"auth_required", result.auth_required}};
+}
+
+void to_json(json& out, const ServerAuthResult& result) {
+  out = {{"authenticated", result.authenticated}};
 }
 
 void to_json(json& out, const MetricsResult& result) {

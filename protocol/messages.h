@@ -48,6 +48,7 @@ enum class Method : std::uint8_t {
   AdminReload,
   GeodesicExpmap,
   GeodesicSpline,
+  ServerAuth,
 };
 
 /// Every method in declaration order, and their wire names ("geodesic.distance", ...).
@@ -56,6 +57,9 @@ std::string_view method_name(Method method);
 std::optional<Method> method_from_name(std::string_view name);
 /// admin.*: need the admin token; never allowed inside a batch.
 bool is_admin_method(Method method);
+/// The methods a connection may call before server.auth when the server has a query token:
+/// server.health (probes) and server.auth itself.
+bool allowed_before_auth(Method method);
 
 /// Mesh ids: 1 to 128 characters of [A-Za-z0-9._-], starting with a letter or a digit (they
 /// may name files and appear in metrics labels). The server applies the same rule to its config.
@@ -102,6 +106,12 @@ struct MeshInfoParams {
 struct ServerInfoParams {};
 struct ServerHealthParams {};
 struct ServerMetricsParams {};
+
+/// server.auth: authenticates the connection with the server's query token. Any string is
+/// accepted here (an empty one never matches); the comparison is the server's. Never batched.
+struct ServerAuthParams {
+  std::string token;
+};
 
 enum class SamplingMethod : std::uint8_t { Fmm, Exact, Auto };
 std::string_view sampling_name(SamplingMethod sampling);  ///< "fmm", "exact", "auto"
@@ -177,7 +187,7 @@ using Params =
     std::variant<DistanceParams, PathParams, FieldParams, MatrixParams, BatchParams, MeshListParams,
                  MeshInfoParams, ServerInfoParams, ServerHealthParams, ServerMetricsParams,
                  AdminRegisterParams, AdminRebuildParams, AdminUnregisterParams, AdminReloadParams,
-                 ExpmapParams, SplineParams>;
+                 ExpmapParams, SplineParams, ServerAuthParams>;
 
 /// One entry of a batch, `{"method": ..., "params": {...}}`. An entry that does not parse does
 /// not fail the batch: it carries its error, answered in its slot.
@@ -304,6 +314,13 @@ struct HealthResult {
   std::uint64_t meshes_total = 0;
   double uptime_seconds = 0;
   std::uint64_t in_flight = 0;
+  /// The server has a query token: other methods than server.health need server.auth first.
+  bool auth_required = false;
+};
+
+/// A successful server.auth (a wrong token is the error Unauthorized).
+struct ServerAuthResult {
+  bool authenticated = true;
 };
 
 /// The Prometheus text exposition, as served on the admin port's /metrics.
@@ -363,6 +380,7 @@ void to_json(nlohmann::json& out, const MeshListResult& result);
 void to_json(nlohmann::json& out, const MeshInfoResult& result);
 void to_json(nlohmann::json& out, const ServerInfoResult& result);
 void to_json(nlohmann::json& out, const HealthResult& result);
+void to_json(nlohmann::json& out, const ServerAuthResult& result);
 void to_json(nlohmann::json& out, const MetricsResult& result);
 void to_json(nlohmann::json& out, const AdminUnregisterResult& result);
 void to_json(nlohmann::json& out, const AdminReloadResult& result);

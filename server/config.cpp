@@ -129,7 +129,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   const Reader top(document, origin);
   top.only({"bind", "port", "admin_bind", "admin_port", "compute_threads", "io_threads",
             "build_threads", "data_dir", "graph_dir", "log_level", "log_json", "admin_token",
-            "shutdown_timeout_ms", "not_ready_retry_after_ms", "limits", "meshes"});
+            "query_token", "shutdown_timeout_ms", "not_ready_retry_after_ms", "limits", "meshes"});
   top.string("bind", config.bind);
   config.admin_bind = config.bind;
   top.string("admin_bind", config.admin_bind);
@@ -149,6 +149,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   top.string("log_level", config.log_level);
   top.boolean("log_json", config.log_json);
   top.string("admin_token", config.admin_token);
+  top.string("query_token", config.query_token);
   top.integer("shutdown_timeout_ms", config.shutdown_timeout_ms, 0, 3'600'000);
   top.integer("not_ready_retry_after_ms", config.not_ready_retry_after_ms, 1, 3'600'000);
 
@@ -241,6 +242,11 @@ void validate_config(const Config& config) {
                       ") must not exceed limits.max_timeout_ms (" +
                       std::to_string(config.limits.max_timeout_ms) + ")");
   }
+  if (!config.query_token.empty() && config.query_token == config.admin_token) {
+    // One secret for both would let every query client call the admin methods.
+    throw ConfigError("query_token: must differ from admin_token (the query token is given to "
+                      "every client; the admin token must stay with the operators)");
+  }
   if (config.admin_port != 0 && config.admin_port == config.port &&
       config.admin_bind == config.bind) {
     throw ConfigError("admin_port: must differ from port (" + std::to_string(config.port) + ")");
@@ -270,6 +276,9 @@ void apply_environment(Config& config) {
   }
   if (const char* token = std::getenv("GEOPROX_ADMIN_TOKEN"); token && *token) {
     config.admin_token = token;
+  }
+  if (const char* token = std::getenv("GEOPROX_QUERY_TOKEN"); token && *token) {
+    config.query_token = token;
   }
   validate_config(config);
 }

@@ -1,7 +1,7 @@
 // geoproxd configuration: one JSON file (configs/README.md and docs/daemon.md document every key
-// and its default), then the environment (GEOPROX_LOG_LEVEL, GEOPROX_ADMIN_TOKEN), then the
-// command line (--bind, --port, --admin-port). Unknown keys are refused, naming the key, so a
-// misspelt option never silently falls back to its default.
+// and its default), then the environment (GEOPROX_LOG_LEVEL, GEOPROX_ADMIN_TOKEN,
+// GEOPROX_QUERY_TOKEN), then the command line (--bind, --port, --admin-port). Unknown keys are
+// refused, naming the key, so a misspelt option never silently falls back to its default.
 #pragma once
 
 #include <cstddef>
@@ -73,6 +73,9 @@ struct Config {
   std::string log_level = "info";
   bool log_json = false;
   std::string admin_token;  ///< empty: admin methods disabled
+  /// Non-empty: a connection must send server.auth with it before any method other than
+  /// server.health. Empty: queries are open (to whoever reaches `bind`).
+  std::string query_token;
   std::int64_t shutdown_timeout_ms = 10'000;
   /// Retry hint of MeshNotReady errors.
   std::int64_t not_ready_retry_after_ms = 1'000;
@@ -88,9 +91,11 @@ Config load_config(const std::filesystem::path& file);
 /// Validates a parsed document; relative paths are resolved against `base_dir`.
 Config parse_config(const nlohmann::json& document, const std::filesystem::path& base_dir,
                     const std::string& origin = "config");
-/// Environment overrides: GEOPROX_LOG_LEVEL, GEOPROX_ADMIN_TOKEN (non-empty values win).
+/// Environment overrides: GEOPROX_LOG_LEVEL, GEOPROX_ADMIN_TOKEN, GEOPROX_QUERY_TOKEN (non-empty
+/// values win).
 void apply_environment(Config& config);
-/// Checks values that flags may have changed (log level...). Throws ConfigError.
+/// Checks values that flags or the environment may have changed (log level, the two tokens
+/// being different...). Throws ConfigError.
 void validate_config(const Config& config);
 
 /// "trace", "debug", "info", "warn", "error", "critical", "off".

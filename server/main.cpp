@@ -53,7 +53,8 @@ constexpr const char* kUsage =
     "                    exit 0 when ready, 1 otherwise\n"
     "  --version, --help\n"
     "\n"
-    "Environment: GEOPROX_LOG_LEVEL (trace..off), GEOPROX_ADMIN_TOKEN (enables admin methods).\n"
+    "Environment: GEOPROX_LOG_LEVEL (trace..off), GEOPROX_ADMIN_TOKEN (enables admin methods),\n"
+    "GEOPROX_QUERY_TOKEN (connections must send server.auth with it before querying).\n"
     "Signals: SIGTERM/SIGINT drain and exit 0 (a second one stops at once); SIGHUP reloads the\n"
     "graph files.\n";
 

@@ -91,7 +91,8 @@ class Connection : public std::enable_shared_from_this<Connection> {
         socket_(std::move(socket)),
         timer_(socket_.get_executor()),
         framer_(server.config.limits.max_line_bytes),
-        buffer_(64 * 1024) {
+        buffer_(64 * 1024),
+        authenticated_(!server.service->query_token_required()) {
     boost::system::error_code ec;
     const auto endpoint = socket_.remote_endpoint(ec);
     peer_ = ec ? std::string("?") : endpoint.address().to_string() + ":" +
@@ -165,7 +166,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
 
   void process_frames() {
     const std::size_t max_inflight = limits().max_inflight_per_connection;
-    while (!closed_ && inflight_ < max_inflight) {
+    while (!closed_ && !locked_out_ && inflight_ < max_inflight) {
       std::optional<protocol::Frame> frame = framer_.next();
       if (!frame) break;
       if (frame->kind == protocol::Frame::Kind::TooLarge) {
@@ -192,6 +193,10 @@ class Connection : public std::enable_shared_from_this<Connection> {
     auto decoded = protocol::decode_request(line, server_.config.limits);
     if (auto* rejection = std::get_if<protocol::Rejection>(&decoded)) {
       const auto method = protocol::method_from_name(rejection->method_name);
+      if (!authenticated_ && method && !protocol::allowed_before_auth(*method)) {
+        // Before server.auth, even a malformed query learns nothing but Unauthorized.
+        rejection->error = unauthenticated_error(*method);
+      }
       server_.metrics.record_request(method, rejection->error.reason(), 0);
       log_request(rejection->id ? rejection->id->json_text() : "null", rejection->method_name,
                   "", received, rejection->error.reason(), rejection->error.what());
@@ -203,11 +208,21 @@ class Connection : public std::enable_shared_from_this<Connection> {
 
   void dispatch(protocol::Call call, Clock::time_point received) {
     const protocol::Method method = call.method();
+    // The one access check of the hot path: a per-connection flag. server.auth is answered
+    // here, in line order, so a request pipelined after it sees its outcome.
+    if (!authenticated_ && !protocol::allowed_before_auth(method)) {
+      finish_request(call, method, "", received,
+                     Service::refuse(call, unauthenticated_error(method)));
+      return;
+    }
     Service& service = *server_.service;
     if (Service::answered_inline(method)) {
       RequestContext context;
       Answer answer = service.answer(call, context);
+      const bool auth = method == protocol::Method::ServerAuth;
+      if (auth) note_auth(answer);
       finish_request(call, method, context.mesh, received, std::move(answer));
+      if (auth && locked_out_) maybe_finish();  // closes once the refusal is written
       return;
     }
     if (server_.state.draining.load()) {
@@ -258,6 +273,30 @@ class Connection : public std::enable_shared_from_this<Connection> {
                           "compute queue full (" + std::to_string(waiting) + " waiting)");
       error.set_retry_after_ms(server_.pool->retry_after_ms());
       finish_request(*shared_call, method, "", received, Service::refuse(*shared_call, error));
+    }
+  }
+
+  static ProtocolError unauthenticated_error(protocol::Method method) {
+    return ProtocolError(ErrorReason::Unauthorized,
+                         "this server needs server.auth with its query token before " +
+                             std::string(protocol::method_name(method)) +
+                             " (server.health says auth_required)");
+  }
+
+  /// Keeps the outcome of a server.auth: right token, authenticated; wrong token (or any
+  /// failure), not, and after Service::kMaxAuthFailures failures the connection is closed.
+  void note_auth(const Answer& answer) {
+    if (!server_.service->query_token_required()) return;  // open: nothing to lose or count
+    authenticated_ = !answer.error;
+    if (authenticated_) return;
+    ++auth_failures_;
+    spdlog::warn("connection {}: server.auth refused ({} of {} attempts)", peer_, auth_failures_,
+                 Service::kMaxAuthFailures);
+    if (auth_failures_ >= Service::kMaxAuthFailures) {
+      spdlog::warn("connection {}: closed after {} failed server.auth attempts", peer_,
+                   auth_failures_);
+      locked_out_ = true;
+      closing_ = true;  // no more reading; maybe_finish() closes once the replies are out
     }
   }
 
@@ -359,7 +398,9 @@ class Connection : public std::enable_shared_from_this<Connection> {
     if (closed_) return;
     if (!(eof_ || closing_)) return;
     if (closing_ && !writing_ && queue_.empty()) {
-      close(eof_ ? "client closed" : "server shutdown");
+      close(eof_ ? "client closed"
+                 : locked_out_ ? "too many failed server.auth attempts"
+                               : "server shutdown");
       return;
     }
     if (eof_ && inflight_ == 0 && framer_.pending_frames() == 0 && !writing_ && queue_.empty()) {
@@ -411,6 +452,10 @@ class Connection : public std::enable_shared_from_this<Connection> {
   bool closing_ = false;
   bool closed_ = false;
   bool writing_ = false;
+  /// server.auth succeeded last, or the server has no query token.
+  bool authenticated_;
+  bool locked_out_ = false;  ///< too many failed server.auth: nothing more is read or answered
+  unsigned auth_failures_ = 0;
   std::size_t inflight_ = 0;
   std::uint64_t next_key_ = 0;
   std::unordered_map<std::uint64_t, Active> active_;

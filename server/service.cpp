@@ -380,6 +380,7 @@ bool Service::answered_inline(protocol::Method method) {
     case protocol::Method::ServerInfo:
     case protocol::Method::ServerHealth:
     case protocol::Method::ServerMetrics:
+    case protocol::Method::ServerAuth:
       return true;
     default:
       return false;
@@ -499,6 +500,13 @@ json Service::execute(const protocol::Params& params, RequestContext& context) c
             return r;
           },
           [&](const protocol::ServerHealthParams&) -> json { return health(); },
+          [&](const protocol::ServerAuthParams& p) -> json {
+            // The connection keeps the outcome (server/server.cpp); the token is never echoed.
+            if (!query_token_matches(p.token)) {
+              throw ProtocolError(ErrorReason::Unauthorized, "params.token: wrong query token");
+            }
+            return protocol::ServerAuthResult{};
+          },
           [&](const protocol::ServerMetricsParams&) -> json {
             return protocol::MetricsResult{metrics_text()};
           },
@@ -571,6 +579,11 @@ std::vector<protocol::ReloadOutcome> Service::reload(const std::optional<std::st
   return outcomes;
 }
 
+bool Service::query_token_matches(std::string_view token) const {
+  if (config_.query_token.empty()) return true;
+  return constant_time_equal(token, config_.query_token);
+}
+
 void Service::check_admin_token(const std::string& token) const {
   if (config_.admin_token.empty()) {
     throw ProtocolError(ErrorReason::Unauthorized,
@@ -590,6 +603,7 @@ protocol::HealthResult Service::health() const {
   h.in_flight = static_cast<std::uint64_t>(std::max<std::int64_t>(0, metrics_.in_flight.load()));
   h.uptime_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - state_.started).count();
+  h.auth_required = query_token_required();
   if (state_.draining.load()) {
     h.status = protocol::HealthStatus::Draining;
   } else if (h.meshes_ready > 0 || h.meshes_total == 0) {

@@ -48,6 +48,14 @@ class Service {
   /// Methods cheap enough to answer on the I/O thread (no geometry work, no file access).
   static bool answered_inline(protocol::Method method);
 
+  /// Failed server.auth calls after which the server closes the connection (slows guessing).
+  static constexpr unsigned kMaxAuthFailures = 5;
+  /// The server has a query token: connections must call server.auth before other methods.
+  bool query_token_required() const { return !config_.query_token.empty(); }
+  /// Whether `token` is the query token (constant time; true when there is none). answer()
+  /// of a server.auth call says the same: a result, or the error Unauthorized.
+  bool query_token_matches(std::string_view token) const;
+
   /// The reply to `call` (never throws).
   Answer answer(const protocol::Call& call, RequestContext& context) const noexcept;
   /// The reply to a call that could not be run (Overloaded, ShuttingDown...).

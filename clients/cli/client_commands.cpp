@@ -33,6 +33,7 @@ struct Common {
   int port = 7878;
   int timeout_ms = 60000;
   bool json = false;
+  std::string token;  ///< the daemon's query token (server.auth); empty: none
 };
 
 struct RemoteArgs {
@@ -62,6 +63,11 @@ void add_common(CLI::App* command, Common& common) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   command->add_flag("--json", common.json, "Print the reply's result as JSON (one line)");
+  command
+      ->add_option("--token", common.token,
+                   "The daemon's query token, sent with server.auth (env GEOPROX_TOKEN; prefer\n"
+                   "the environment: other users can read command lines)")
+      ->envname("GEOPROX_TOKEN");
 }
 
 std::string number_text(const nlohmann::json& value) {
@@ -211,6 +217,7 @@ void run_remote(const std::string& command, const RemoteArgs& args) {
   client::Options options;
   options.connect_timeout_ms = args.common.timeout_ms;
   options.read_timeout_ms = args.common.timeout_ms;
+  options.token = args.common.token;
   int exit_code = kExitOk;
   std::string diagnostic;
   try {
@@ -266,7 +273,8 @@ void add_client_commands(CLI::App& app, std::vector<Command>& commands) {
   remote->require_subcommand(1);
   remote->footer(
       "Options --host (default $GEOPROX_HOST or 127.0.0.1), --port ($GEOPROX_PORT or 7878),\n"
-      "--timeout-ms and --json go after the subcommand, e.g.\n"
+      "--token ($GEOPROX_TOKEN: the query token of a daemon that has one), --timeout-ms and\n"
+      "--json go after the subcommand, e.g.\n"
       "  geoprox remote distance spot v:0 f:100:0.2:0.3:0.5 --port 7878\n\n" +
       exit_code_footer());
 

@@ -139,7 +139,16 @@ void Client::connect() {
     fd_ = connect_one(*ai, deadline, timed_out, failure);
   }
   ::freeaddrinfo(list);
-  if (fd_ >= 0) return;
+  if (fd_ >= 0) {
+    if (options_.token.empty()) return;
+    try {
+      exchange("server.auth", {{"token", options_.token}});
+    } catch (...) {
+      close();  // the next call connects and authenticates again
+      throw;
+    }
+    return;
+  }
   if (timed_out) {
     throw TimeoutError("cannot connect to " + where + ": no answer within " +
                        std::to_string(options_.connect_timeout_ms) + " ms");
@@ -198,6 +207,10 @@ std::string Client::read_line() {
 
 nlohmann::json Client::call(std::string_view method, const nlohmann::json& params) {
   connect();
+  return exchange(method, params);
+}
+
+nlohmann::json Client::exchange(std::string_view method, const nlohmann::json& params) {
   const std::int64_t id = next_id_++;
   const auto request_id = protocol::RequestId::number(id);
   std::string line;

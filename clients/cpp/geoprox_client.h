@@ -10,7 +10,8 @@
 // Errors: ServerError (the server answered with an error: code, reason, retryable, message),
 // ConnectionError (cannot connect, connection lost, garbled reply) and TimeoutError (connect or
 // read timeout; the connection is closed since a late reply would be out of step), all derived
-// from ClientError.
+// from ClientError. With Options::token, every new connection first sends server.auth (the
+// server's query token); a wrong token is a ServerError with reason "Unauthorized".
 #pragma once
 
 #include <cstdint>
@@ -27,6 +28,9 @@ namespace geoprox::client {
 struct Options {
   int connect_timeout_ms = 5000;  ///< <= 0: wait as long as the system does
   int read_timeout_ms = 60000;    ///< per reply; <= 0: no timeout
+  /// The server's query token, sent with server.auth as soon as a connection opens (servers
+  /// without a query token accept any). Empty: none sent. Not the admin token.
+  std::string token;
 };
 
 class ClientError : public std::runtime_error {
@@ -78,7 +82,9 @@ class Client {
   Client(Client&& other) noexcept;
   Client& operator=(Client&& other) noexcept;
 
-  /// Opens the connection now (otherwise the first call does). Throws ConnectionError/TimeoutError.
+  /// Opens the connection now (otherwise the first call does) and authenticates it when
+  /// Options::token is set. Throws ConnectionError/TimeoutError, or ServerError (Unauthorized)
+  /// for a wrong token, leaving the client disconnected.
   void connect();
   void close() noexcept;
   bool is_connected() const noexcept { return fd_ >= 0; }
@@ -103,6 +109,8 @@ class Client {
   nlohmann::json health();
 
  private:
+  /// One request and its reply on the open connection.
+  nlohmann::json exchange(std::string_view method, const nlohmann::json& params);
   std::string read_line();
   void send_all(const std::string& data);
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # End-to-end test of `geoprox remote ...` against a real geoproxd serving data/meshes/spot.obj:
 # answers equal to the offline commands on the same graph file, --json/--csv output, and the
-# error lines and exit codes (4 connection, 6 server error).
+# error lines and exit codes (4 connection, 6 server error), and --token / GEOPROX_TOKEN against
+# a daemon with a query token.
 # Usage: bash remote_test.sh GEOPROX_BINARY REPO_ROOT
 set -euo pipefail
 # shellcheck source=lib.sh
@@ -113,6 +114,35 @@ for _ in $(seq 100); do kill -0 "$daemon_pid" 2>/dev/null || break; sleep 0.1; d
 kill -0 "$daemon_pid" 2>/dev/null && fail "geoproxd still running 10 s after SIGTERM"
 wait "$daemon_pid" || fail "geoproxd exited with $? after SIGTERM"
 daemon_pid=
+pass
+
+# Query token (docs/protocol.md, server.auth): a daemon given GEOPROX_QUERY_TOKEN refuses
+# queries without it; --token or GEOPROX_TOKEN sends it; the token never reaches its log.
+query_token=cli-query-token-3e9d61f0
+rm -f "$tmp/port.json"
+export GEOPROX_TOKEN=$query_token  # start_daemon's readiness check needs it
+GEOPROX_QUERY_TOKEN=$query_token GEOPROX_LOG_LEVEL=debug start_daemon
+grep -q '^spot  *ready' "$tmp/meshes" || fail "spot not ready with GEOPROX_TOKEN: $(cat "$tmp/meshes")"; pass
+"$geoprox" remote distance spot v:0 "$target" | cmp -s - "$tmp/remote" ||
+  fail "GEOPROX_TOKEN: another answer"; pass
+unset GEOPROX_TOKEN
+expect_geoprox_error 6 '[Unauthorized]' remote distance spot v:0 "$target"
+expect_geoprox_error 6 '[Unauthorized]' remote meshes
+expect_geoprox_error 6 '[Unauthorized]' remote distance spot v:0 "$target" --token wrong-token
+"$geoprox" remote health | grep -qx 'auth_required true' || fail "health without a token"; pass
+"$geoprox" remote distance spot v:0 "$target" --token "$query_token" | cmp -s - "$tmp/remote" ||
+  fail "--token: another answer"; pass
+GEOPROX_TOKEN=wrong-token "$geoprox" remote distance spot v:0 "$target" --token "$query_token" |
+  cmp -s - "$tmp/remote" || fail "--token does not override GEOPROX_TOKEN"; pass
+GEOPROX_TOKEN=wrong-token "$geoprox" remote info >/dev/null 2>"$tmp/err" &&
+  fail "a wrong GEOPROX_TOKEN was accepted"
+grep -qF '[Unauthorized]' "$tmp/err" || fail "wrong GEOPROX_TOKEN: $(cat "$tmp/err")"; pass
+kill -TERM "$daemon_pid"
+wait "$daemon_pid" || fail "geoproxd (query token) exited with $? after SIGTERM"
+daemon_pid=
+grep -q 'server.auth refused' "$tmp/daemon.log" || fail "no refused server.auth in the log"; pass
+grep -q 'method=geodesic.distance' "$tmp/daemon.log" || fail "no request lines at debug"; pass
+grep -qF -e "$query_token" -e wrong-token "$tmp/daemon.log" && fail "a token is in the daemon's log"
 pass
 
 echo "remote_test.sh: $checks checks passed"

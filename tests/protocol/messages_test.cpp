@@ -46,12 +46,20 @@ TEST(Methods, NamesRoundTripAndAdminMethodsAreMarked) {
                 "geodesic.distance", "geodesic.path", "geodesic.field", "geodesic.matrix", "batch",
                 "mesh.list", "mesh.info", "server.info", "server.health", "server.metrics",
                 "admin.register", "admin.rebuild", "admin.unregister", "admin.reload",
-                "geodesic.expmap", "geodesic.spline"}));
+                "geodesic.expmap", "geodesic.spline", "server.auth"}));
   EXPECT_FALSE(method_from_name("geodesic.Distance"));
   EXPECT_FALSE(method_from_name("rpc.discover"));
   for (Method method : all_methods()) {
     EXPECT_EQ(is_admin_method(method), method_name(method).starts_with("admin."));
   }
+}
+
+TEST(Methods, OnlyHealthAndAuthAreAllowedBeforeAuthentication) {
+  std::set<Method> open;
+  for (Method method : all_methods()) {
+    if (allowed_before_auth(method)) open.insert(method);
+  }
+  EXPECT_EQ(open, (std::set<Method>{Method::ServerHealth, Method::ServerAuth}));
 }
 
 TEST(Methods, MeshIds) {
@@ -337,6 +345,46 @@ TEST(RegistryParams, MeshListInfoAndServerMethods) {
                  "params.mesh is missing");
 }
 
+TEST(ServerAuthParamsTest, AnyStringIsATokenAndMessagesNeverQuoteIt) {
+  EXPECT_EQ(parse_as<ServerAuthParams>(Method::ServerAuth, json{{"token", "s3cret"}}).token,
+            "s3cret");
+  // Empty and odd tokens parse: whether they match is the server's (constant-time) answer.
+  EXPECT_EQ(parse_as<ServerAuthParams>(Method::ServerAuth, json{{"token", ""}}).token, "");
+  EXPECT_EQ(parse_as<ServerAuthParams>(Method::ServerAuth, json{{"token", "a\"b\n\u00e9"}}).token,
+            "a\"b\n\u00e9");
+  std::optional<std::int64_t> timeout;
+  parse_as<ServerAuthParams>(Method::ServerAuth, json{{"token", "t"}, {"timeout_ms", 7}}, {},
+                             &timeout);
+  EXPECT_EQ(timeout, 7);
+  const auto refusal = [](const json& params) -> std::string {
+    try {
+      parse_params(Method::ServerAuth, params, {});
+    } catch (const ProtocolError& error) {
+      EXPECT_EQ(error.reason(), ErrorReason::InvalidParams) << error.what();
+      return error.what();
+    }
+    ADD_FAILURE() << "accepted " << params.dump();
+    return "";
+  };
+  EXPECT_EQ(refusal(json::object()), "params.token is missing");
+  EXPECT_EQ(refusal(json{{"token", 12345}}), "params.token must be a string, not a number");
+  EXPECT_EQ(refusal(json{{"token", json::array({"s3cret"})}}),
+            "params.token must be a string, not an array");
+  const std::string extra = refusal(json{{"token", "s3cret"}, {"tokne", "s3cret"}});
+  EXPECT_NE(extra.find("unknown member \"tokne\" (expected token, timeout_ms)"), std::string::npos)
+      << extra;
+  EXPECT_EQ(extra.find("s3cret"), std::string::npos) << extra;
+  // Never inside a batch: authentication belongs to the connection, in line order.
+  const auto batch = parse_as<BatchParams>(
+      Method::Batch, json::parse(R"({"requests":[{"method":"server.auth","params":{"token":"t"}}]})"));
+  ASSERT_EQ(batch.requests.size(), 1u);
+  ASSERT_TRUE(batch.requests[0].error);
+  EXPECT_EQ(batch.requests[0].error->reason(), ErrorReason::InvalidParams);
+  EXPECT_NE(std::string(batch.requests[0].error->what()).find("\"server.auth\" cannot be batched"),
+            std::string::npos)
+      << batch.requests[0].error->what();
+}
+
 TEST(AdminParams, Register) {
   const auto params = parse_as<AdminRegisterParams>(
       Method::AdminRegister,
@@ -436,6 +484,7 @@ TEST(ParamsJson, WhatClientsSendReadsBackTheSame) {
       {Method::ServerInfo, "{}"},
       {Method::ServerHealth, "{}"},
       {Method::ServerMetrics, "{}"},
+      {Method::ServerAuth, R"({"token":"t"})"},
       {Method::AdminRegister,
        R"({"build":{"neighbors":22,"sampling":"auto","samples":100},"graph_file":"g/b.geoprox","mesh":"b","mesh_file":"m/b.obj","token":"t"})"},
       {Method::AdminRebuild, R"({"build":{"sampling":"fmm"},"mesh":"b","token":"t"})"},
@@ -602,7 +651,9 @@ TEST(Results, ServerInfoHealthMetrics) {
 
   EXPECT_EQ(json(HealthResult{HealthStatus::Ok, 2, 3, 12.5, 4}),
             json::parse(R"({"status":"ok","ready":true,"meshes_ready":2,"meshes_total":3,
-                            "uptime_seconds":12.5,"in_flight":4})"));
+                            "uptime_seconds":12.5,"in_flight":4,"auth_required":false})"));
+  EXPECT_EQ(json(HealthResult{HealthStatus::Ok, 2, 3, 12.5, 4, true})["auth_required"], true);
+  EXPECT_EQ(json(ServerAuthResult{}), json::parse(R"({"authenticated":true})"));
   EXPECT_EQ(json(HealthResult{HealthStatus::Draining, 3, 3, 1, 0})["ready"], false);
   EXPECT_EQ(json(HealthResult{HealthStatus::Starting, 0, 3, 1, 0})["status"], "starting");
   EXPECT_EQ(json(MetricsResult{"geoprox_requests_total 3\n"}),

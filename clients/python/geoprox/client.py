@@ -440,6 +440,10 @@ class Client(_Methods[Any]):
             waits at least that long plus one second. Past it, :class:`GeoproxTimeoutError`;
             the connection stays usable (a late reply is dropped).
         connect_timeout: seconds to wait for the connection (default: ``timeout``).
+        token: the server's query token (default ``GEOPROX_TOKEN`` from the environment):
+            every new connection first sends ``server.auth`` with it, and a wrong one raises
+            :class:`ServerError` ``Unauthorized``. Servers without a query token accept any.
+            Not the admin token.
         admin_token: the token admin methods send when they are not given one.
         retries: how many times :meth:`call` and the query methods retry a request that failed
             with a retryable error (``Overloaded``, ``MeshNotReady``, ``ShuttingDown``, lost
@@ -463,6 +467,7 @@ class Client(_Methods[Any]):
         *,
         timeout: Optional[float] = 30.0,
         connect_timeout: Optional[float] = None,
+        token: Optional[str] = None,
         admin_token: Optional[str] = None,
         retries: int = 0,
         retry_backoff: float = 0.05,
@@ -475,6 +480,9 @@ class Client(_Methods[Any]):
         self.port = int(port if port is not None else (env_port or DEFAULT_PORT))
         self.timeout = timeout
         self.connect_timeout = timeout if connect_timeout is None else connect_timeout
+        self._query_token = (
+            token if token is not None else (os.environ.get("GEOPROX_TOKEN") or None)
+        )
         self._admin_token = admin_token
         self.retries = retries
         self.retry_backoff = retry_backoff
@@ -509,8 +517,10 @@ class Client(_Methods[Any]):
         return self._sock is not None
 
     def connect(self) -> None:
-        """Opens the connection if it is not open. Raises :class:`GeoproxConnectionError`
-        (reason ``ConnectionFailed``)."""
+        """Opens the connection if it is not open, and authenticates it when the client has a
+        token. Raises :class:`GeoproxConnectionError` (reason ``ConnectionFailed``), or
+        :class:`ServerError` ``Unauthorized`` for a wrong token (the client stays
+        disconnected)."""
         with self._lock:
             if self._closed:
                 raise GeoproxConnectionError(
@@ -533,6 +543,19 @@ class Client(_Methods[Any]):
             self._rbuf.clear()
             self._scan_from = 0
             self._abandoned.clear()
+            if self._query_token is not None:
+                self._authenticate(self._query_token)
+
+    def _authenticate(self, token: str) -> None:
+        """``server.auth`` on the new connection, before anything else is sent on it."""
+        pending = Pending(Request("server.auth", {"token": token}))
+        payload, waiting, by_id = self._prepare([pending])
+        try:
+            self._exchange(payload, waiting, by_id, self.timeout)
+            pending.result()
+        except GeoproxError:
+            self._drop()  # the next request connects and authenticates again
+            raise
 
     def _peer_closed(self) -> bool:
         """True if the server closed the idle connection (its read timeout, a restart): the
@@ -701,37 +724,45 @@ class Client(_Methods[Any]):
         """Sends the requests of ``pendings`` and resolves each with its reply. Raises
         connection, timeout and protocol errors after failing the unanswered requests."""
         with self._lock:
-            lines: list[bytes] = []
-            by_id: dict[int, Pending] = {}
-            waiting: dict[int, int] = {}  # id -> line length, in sending order
-            for p in pendings:
-                rid = self._next_id
-                self._next_id += 1
-                envelope: dict[str, Any] = {"jsonrpc": "2.0", "id": rid, "method": p.request.method}
-                if p.request.params:
-                    envelope["params"] = p.request.params
-                try:
-                    line = (
-                        json.dumps(envelope, separators=(",", ":"), allow_nan=False).encode()
-                        + b"\n"
-                    )
-                except ValueError as e:  # NaN or infinity in params
-                    raise ValueError(
-                        f"{p.request.method}: params are not valid JSON: {e}"
-                    ) from None
-                lines.append(line)
-                by_id[rid] = p
-                waiting[rid] = len(line) - 1
+            payload, waiting, by_id = self._prepare(pendings)
             if timeout is not None:
                 slack = max((p.request.params.get("timeout_ms") or 0) for p in pendings) / 1000.0
                 timeout = max(timeout, slack + 1.0) if slack else timeout
             try:
                 self.connect()
-                self._exchange(b"".join(lines), waiting, by_id, timeout)
+                self._exchange(payload, waiting, by_id, timeout)
             except GeoproxError as error:
                 for rid in waiting:
                     by_id[rid]._resolve(error=error)
                 raise
+
+    def _prepare(
+        self, pendings: list[Pending]
+    ) -> tuple[bytes, dict[int, int], dict[int, Pending]]:
+        """The request lines of ``pendings`` with fresh ids: the payload, the ids waiting for
+        a reply (id -> line length, in sending order) and their :class:`Pending`."""
+        lines: list[bytes] = []
+        by_id: dict[int, Pending] = {}
+        waiting: dict[int, int] = {}
+        for p in pendings:
+            rid = self._next_id
+            self._next_id += 1
+            envelope: dict[str, Any] = {"jsonrpc": "2.0", "id": rid, "method": p.request.method}
+            if p.request.params:
+                envelope["params"] = p.request.params
+            try:
+                line = (
+                    json.dumps(envelope, separators=(",", ":"), allow_nan=False).encode()
+                    + b"\n"
+                )
+            except ValueError as e:  # NaN or infinity in params
+                raise ValueError(
+                    f"{p.request.method}: params are not valid JSON: {e}"
+                ) from None
+            lines.append(line)
+            by_id[rid] = p
+            waiting[rid] = len(line) - 1
+        return b"".join(lines), waiting, by_id
 
     def _exchange(
         self,

@@ -38,6 +38,7 @@ from geoprox import (
 SOURCE_DIR = Path(__file__).resolve().parents[3]
 SPOT_OBJ = SOURCE_DIR / "data" / "meshes" / "spot.obj"
 TOKEN = "test-token"
+QUERY_TOKEN = "test-query-token-0d5e"
 # A closed tetrahedron (vertices 0-3) and, apart from it, an open unit square (vertices 4-7).
 TWO_COMPONENTS_OBJ = """\
 v 0 0 0
@@ -87,7 +88,11 @@ class Daemon:
             [binary, "--config", str(config_path), "--port-file", str(self.port_file)],
             stdout=self.log,
             stderr=subprocess.STDOUT,
-            env={k: v for k, v in os.environ.items() if k != "GEOPROX_ADMIN_TOKEN"},
+            env={
+                k: v
+                for k, v in os.environ.items()
+                if k not in ("GEOPROX_ADMIN_TOKEN", "GEOPROX_QUERY_TOKEN")
+            },
         )
         self.port = self._wait_for_port(timeout=60.0)
 
@@ -190,6 +195,8 @@ def setUpModule() -> None:
         )
     if not os.access(binary, os.X_OK):
         raise RuntimeError(f"GEOPROXD={binary} is not an executable file")
+    # Clients read their query token from GEOPROX_TOKEN; the tests choose theirs.
+    os.environ.pop("GEOPROX_TOKEN", None)
     ROOT = tempfile.TemporaryDirectory(prefix="geoprox-python-test-")
     root = Path(ROOT.name)
     (root / "data" / "meshes").mkdir(parents=True)
@@ -720,6 +727,99 @@ class ConnectionTest(unittest.TestCase):
                 self.assertIsInstance(caught.exception, ConnectionError)
         finally:
             other.stop()
+
+
+class QueryTokenTest(unittest.TestCase):
+    """A second daemon on the same data with a query token (docs/protocol.md, server.auth)."""
+
+    secured: Optional[Daemon] = None
+
+    @classmethod
+    def setUpClass(cls) -> None:
+        cls.secured = Daemon(
+            os.environ["GEOPROXD"], daemon().root, "secured", query_token=QUERY_TOKEN
+        )
+        with cls.secured.client(token=QUERY_TOKEN, timeout=30) as client:
+            client.wait_ready("spot", timeout=120)
+
+    @classmethod
+    def tearDownClass(cls) -> None:
+        if cls.secured is not None:
+            cls.secured.stop()
+
+    def port(self) -> int:
+        assert self.secured is not None
+        return self.secured.port
+
+    def test_without_token_only_health_answers(self) -> None:
+        with geoprox.Client("127.0.0.1", self.port(), timeout=10) as client:
+            self.assertTrue(client.health()["auth_required"])
+            for call in (
+                lambda: client.distance("spot", "v:0", "v:1"),
+                lambda: client.mesh_list(),
+                lambda: client.server_info(),
+            ):
+                with self.assertRaises(ServerError) as caught:
+                    call()
+                self.assertEqual(caught.exception.reason, Reason.UNAUTHORIZED)
+                self.assertEqual(caught.exception.code, -32040)
+                self.assertFalse(caught.exception.retryable)
+        with daemon().client(timeout=10) as open_client:
+            self.assertFalse(open_client.health()["auth_required"])
+
+    def test_token_opens_queries_pipelines_and_batches(self) -> None:
+        with daemon().client(timeout=30) as reference:
+            expected = reference.distance("spot", "v:0", "f:100:0.2:0.3:0.5")["distance"]
+        with geoprox.Client("127.0.0.1", self.port(), timeout=30, token=QUERY_TOKEN) as client:
+            self.assertEqual(
+                client.distance("spot", "v:0", "f:100:0.2:0.3:0.5")["distance"], expected
+            )
+            with client.pipeline() as pipe:
+                pending = [pipe.distance("spot", "v:0", f"v:{i}") for i in range(1, 20)]
+            self.assertTrue(all(p.result()["distance"] > 0 for p in pending))
+            (first,) = client.batch([geoprox.request.distance("spot", "v:0", "f:100:0.2:0.3:0.5")])
+            self.assertEqual(first["distance"], expected)
+            # A new connection (the old one dropped) is authenticated again, transparently.
+            first_sock = client._sock
+            client._drop()
+            self.assertEqual(client.mesh_list()["meshes"][0]["id"], "spot")
+            self.assertIsNot(client._sock, first_sock)
+
+    def test_wrong_or_admin_token_is_refused_at_connect(self) -> None:
+        for token in ("wrong", "", TOKEN):
+            with self.assertRaises(ServerError) as caught:
+                geoprox.Client("127.0.0.1", self.port(), timeout=10, token=token)
+            self.assertEqual(caught.exception.reason, Reason.UNAUTHORIZED, token)
+        client = geoprox.Client("127.0.0.1", self.port(), timeout=10, token="wrong", connect=False)
+        with client:
+            with self.assertRaises(ServerError) as caught:
+                client.distance("spot", "v:0", "v:1")
+            self.assertEqual(caught.exception.reason, Reason.UNAUTHORIZED)
+            self.assertFalse(client.connected)
+
+    def test_token_from_the_environment(self) -> None:
+        os.environ["GEOPROX_TOKEN"] = QUERY_TOKEN
+        try:
+            with geoprox.Client("127.0.0.1", self.port(), timeout=10) as client:
+                self.assertEqual(client.mesh_list()["meshes"][0]["id"], "spot")
+            # An explicit token wins over the environment.
+            with self.assertRaises(ServerError):
+                geoprox.Client("127.0.0.1", self.port(), timeout=10, token="wrong")
+        finally:
+            del os.environ["GEOPROX_TOKEN"]
+
+    def test_open_server_accepts_any_token(self) -> None:
+        with daemon().client(timeout=10, token="anything") as client:
+            self.assertEqual(client.distance("spot", "v:0", "v:1")["target"], {"vertex": 1})
+
+    def test_token_is_not_in_the_log(self) -> None:
+        with self.assertRaises(ServerError):
+            geoprox.Client("127.0.0.1", self.port(), timeout=10, token="guess-77e1")
+        assert self.secured is not None
+        log = self.secured.output()
+        self.assertIn("server.auth refused", log)
+        for secret in (QUERY_TOKEN, "guess-77e1"):
+            self.assertNotIn(secret, log)
 
 
 if __name__ == "__main__":
