@@ -1,13 +1,17 @@
-// Load generator for geoproxd (issue 5 §6): N TCP connections speaking the protocol, each
-// keeping up to `depth` requests in flight (pipelining), a mix of methods on random surface
-// points, for a fixed duration. Reports throughput, latency percentiles (p50/p99/p999/max,
-// measured from the moment a request is written to the moment its reply line is read) and
-// errors by reason.
+// Load generator for geoproxd (issue 5 §6, issue 8 §2): N TCP connections speaking the protocol,
+// each keeping up to `depth` requests in flight (pipelining), a mix of methods on random surface
+// points plus an optional fraction of bad requests, for a fixed duration. Every request is
+// accounted for: each one sent must get exactly one reply with its id (a bad request: its
+// expected error reason), within a drain period after the run. Reports throughput, latency
+// percentiles (p50/p99/p999/max, from the moment a request is queued for writing to the moment
+// its reply line is read), errors by reason and, with --daemon-pid, the daemon's resident memory.
 //
 //   load_generator [--host 127.0.0.1] [--port 7878] [--mesh spot] [--connections 16]
 //                  [--depth 8] [--duration 10] [--warmup 1] [--rate 0]
 //                  [--mix distance=1,path=0,field=0,matrix=0,exact=0] [--points face|vertex]
 //                  [--encoding f32le-base64|json] [--matrix-size 4] [--seed 1]
+//                  [--bad 0] [--drain 10] [--allow-errors REASON,...]
+//                  [--daemon-pid PID] [--rss-every 0] [--json FILE]
 //   load_generator --in-process MESH GRAPH [--threads 2] [--duration 10] [--points face|vertex]
 //
 // --rate R (requests/s over all connections) paces the requests (open loop; a request whose
@@ -16,20 +20,60 @@
 // point-to-point distances on GeodesicQuery directly, one scratch per thread: the reference
 // rate the daemon is compared with. Run the daemon with log_level "warn" (or "info") while
 // measuring: per-request lines are debug.
+//
+// --bad F (0 to 1): that fraction of the requests of each connection are bad, spread evenly
+// (every 1/F-th request) and cycling through these kinds, each with the reply it must get:
+//   malformed-json     the request cut short (id first)        ParseError, its id
+//   unknown-method     geodesic.distances                      UnknownMethod
+//   unknown-mesh       mesh "no-such-mesh"                     UnknownMesh
+//   face-out-of-range  a face id >= the face count             FaceOutOfRange
+//   bary-off-simplex   barycentrics summing to 1.1             BadBarycentric
+//   nan-coordinate     {"position": [NaN, 0, 0]} (not JSON)    ParseError, its id
+//   wrong-type         {"face": "7", ...}                      BadPoint
+//   missing-id         no "id" and no "jsonrpc"                InvalidRequest, id null
+//   notification       a valid envelope without id (unknown mesh): no reply at all
+// The point kinds corrupt the first point of the request's method (distance, path, field or
+// matrix, as picked by --mix). A null-id reply is matched to the connection's oldest missing-id
+// request; one more null-id reply than those (e.g. an answered notification) is unexpected.
+//
+// Exit status 0 only when: every request got exactly one reply (none lost after --drain
+// seconds, no reply with an unknown or repeated id, no unreadable line), no good request failed
+// (errors whose reason is listed by --allow-errors are reported but tolerated), every bad
+// request got its expected reason, no connection was closed by the server, and the daemon of
+// --daemon-pid is still alive at the end; 1 otherwise, 2 on bad arguments. Overloaded is not
+// tolerated by default: in closed loop at most connections x depth requests are in flight, and
+// with the defaults (64 x 8 = 512 < max_queue 1024, depth 8 < max_inflight_per_connection 64)
+// the compute queue cannot fill, so Overloaded there would be a bug. Pass --allow-errors
+// Overloaded when deliberately driving the daemon past its limits.
+//
+// --daemon-pid PID samples VmRSS of /proc/PID/status when the warmup ends ("start"), every
+// --rss-every seconds if > 0, and after the drain ("end"); reports start, end and max. --json
+// FILE writes the summary (counts, latencies, errors, memory, pass/fail and why) as one JSON
+// object.
 #include <utility>  // before Boost.Asio 1.74: its awaitable.hpp uses std::exchange
 
 #include <boost/asio.hpp>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <functional>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
+#include <set>
 #include <string>
 #include <thread>
 #include <unordered_map>
@@ -54,14 +98,20 @@ struct Options {
   std::string mesh = "spot";
   int connections = 16;
   int depth = 8;
-  double duration = 10;
-  double warmup = 1;
-  double rate = 0;
+  double duration = 10;  ///< s of measurement, after the warmup
+  double warmup = 1;     ///< s of load before measuring
+  double rate = 0;       ///< requests/s over all connections; 0: closed loop
   std::map<std::string, double> mix = {{"distance", 1}};
   std::string points = "face";
   std::string encoding = "f32le-base64";
   int matrix_size = 4;
   unsigned seed = 1;
+  double bad = 0;      ///< fraction of bad requests, 0 to 1
+  double drain = 10;   ///< s to wait for outstanding replies after the run
+  std::set<std::string> allowed_errors;  ///< reasons tolerated on good requests
+  int daemon_pid = 0;    ///< 0: no memory sampling
+  double rss_every = 0;  ///< s between memory samples; 0: start and end only
+  std::string json_path;
   std::string in_process_mesh, in_process_graph;
   int threads = 2;
 };
@@ -70,6 +120,17 @@ struct Options {
   std::fprintf(stderr, "load_generator: %s (see the header of bench/load_generator.cpp)\n",
                why.c_str());
   std::exit(2);
+}
+
+std::vector<std::string> split(const std::string& text, char separator) {
+  std::vector<std::string> items;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t end = std::min(text.find(separator, pos), text.size());
+    if (end > pos) items.push_back(text.substr(pos, end - pos));
+    pos = end + 1;
+  }
+  return items;
 }
 
 Options parse(int argc, char** argv) {
@@ -93,27 +154,33 @@ Options parse(int argc, char** argv) {
     else if (a == "--matrix-size") o.matrix_size = std::stoi(next());
     else if (a == "--seed") o.seed = static_cast<unsigned>(std::stoul(next()));
     else if (a == "--threads") o.threads = std::stoi(next());
-    else if (a == "--in-process") {
+    else if (a == "--bad") o.bad = std::stod(next());
+    else if (a == "--drain") o.drain = std::stod(next());
+    else if (a == "--daemon-pid") o.daemon_pid = std::stoi(next());
+    else if (a == "--rss-every") o.rss_every = std::stod(next());
+    else if (a == "--json") o.json_path = next();
+    else if (a == "--allow-errors") {
+      for (const std::string& reason : split(next(), ',')) o.allowed_errors.insert(reason);
+    } else if (a == "--in-process") {
       o.in_process_mesh = next();
       o.in_process_graph = next();
     } else if (a == "--mix") {
       o.mix.clear();
-      std::string text = next();
-      std::size_t pos = 0;
-      while (pos < text.size()) {
-        const std::size_t comma = text.find(',', pos);
-        const std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+      for (const std::string& item : split(next(), ',')) {
         const std::size_t eq = item.find('=');
         if (eq == std::string::npos) usage("--mix wants method=weight,...");
         o.mix[item.substr(0, eq)] = std::stod(item.substr(eq + 1));
-        if (comma == std::string::npos) break;
-        pos = comma + 1;
       }
     } else {
       usage("unknown argument " + a);
     }
   }
-  if (o.connections < 1 || o.depth < 1 || o.duration <= 0) usage("bad numbers");
+  if (o.connections < 1 || o.depth < 1 || o.duration <= 0 || o.warmup < 0 || o.drain < 0 ||
+      o.rss_every < 0 || o.matrix_size < 1) {
+    usage("bad numbers");
+  }
+  if (!(o.bad >= 0 && o.bad <= 1)) usage("--bad wants a fraction in [0, 1]");
+  if (o.mix.empty()) usage("--mix is empty");
   return o;
 }
 
@@ -155,24 +222,102 @@ class PointSource {
   std::mt19937_64 rng_;
 };
 
+/// A kind of bad request and the reply it must get (see the header comment).
+struct BadKind {
+  const char* name;
+  const char* reason;  ///< expected data.reason; "" for a notification, which gets no reply
+  bool null_id;        ///< answered with id null: the request has no id to echo
+};
+constexpr BadKind kBadKinds[] = {
+    {"malformed-json", "ParseError", false},   {"unknown-method", "UnknownMethod", false},
+    {"unknown-mesh", "UnknownMesh", false},    {"face-out-of-range", "FaceOutOfRange", false},
+    {"bary-off-simplex", "BadBarycentric", false}, {"nan-coordinate", "ParseError", false},
+    {"wrong-type", "BadPoint", false},         {"missing-id", "InvalidRequest", true},
+    {"notification", "", false},
+};
+constexpr std::size_t kBadKindCount = std::size(kBadKinds);
+
+/// What one connection (and, summed, the whole run) observed.
 struct Stats {
-  std::vector<double> latencies_ms;
-  std::map<std::string, std::uint64_t> errors;
-  std::uint64_t ok = 0;
+  std::uint64_t sent = 0;           ///< requests that must be answered
+  std::uint64_t notifications = 0;  ///< requests without id: must not be answered
+  std::uint64_t answered = 0;       ///< replies matched to a request sent
+  std::uint64_t ok = 0;             ///< good requests with a result
+  std::uint64_t lost = 0;           ///< sent, no reply by the end of the drain
+  std::uint64_t unexpected_replies = 0;  ///< unknown or repeated id, extra null id, unreadable line
+  std::uint64_t dropped = 0;        ///< connections closed or reset by the server mid-run
   std::uint64_t late = 0;
-  std::uint64_t bytes = 0;
+  std::uint64_t measured = 0;       ///< replies to requests sent in the measurement window
+  std::uint64_t measured_bytes = 0;
+  std::map<std::string, std::uint64_t> sent_by_kind;
+  std::map<std::string, std::uint64_t> expected_errors;    ///< reason -> bad requests that got it
+  std::map<std::string, std::uint64_t> unexpected_errors;  ///< reason -> good requests that got it
+  std::map<std::string, std::uint64_t> allowed_errors;     ///< same, for --allow-errors reasons
+  std::map<std::string, std::uint64_t> wrong_replies;  ///< "kind: expected X, got Y" -> count
+  std::vector<std::string> samples;                    ///< first few unexpected lines, for the log
+  std::vector<double> latencies_ms;
+  std::map<std::string, std::vector<double>> latencies_by_kind;
+
+  void merge(const Stats& s) {
+    sent += s.sent;
+    notifications += s.notifications;
+    answered += s.answered;
+    ok += s.ok;
+    lost += s.lost;
+    unexpected_replies += s.unexpected_replies;
+    dropped += s.dropped;
+    late += s.late;
+    measured += s.measured;
+    measured_bytes += s.measured_bytes;
+    auto add = [](auto& into, const auto& from) {
+      for (const auto& [k, v] : from) into[k] += v;
+    };
+    add(sent_by_kind, s.sent_by_kind);
+    add(expected_errors, s.expected_errors);
+    add(unexpected_errors, s.unexpected_errors);
+    add(allowed_errors, s.allowed_errors);
+    add(wrong_replies, s.wrong_replies);
+    for (const auto& line : s.samples) {
+      if (samples.size() < 10) samples.push_back(line);
+    }
+    latencies_ms.insert(latencies_ms.end(), s.latencies_ms.begin(), s.latencies_ms.end());
+    for (const auto& [k, v] : s.latencies_by_kind) {
+      auto& into = latencies_by_kind[k];
+      into.insert(into.end(), v.begin(), v.end());
+    }
+  }
+  void note(const std::string& what) {
+    if (samples.size() < 10) samples.push_back(what);
+  }
+};
+
+/// A request as queued for writing, and what its reply must be.
+struct Outgoing {
+  std::string line;
+  int kind = 0;  ///< index into the labels: the mix's methods, then the bad kinds
+  bool expects_reply = true;
+  bool null_id = false;
+};
+
+struct Pending {
+  Clock::time_point sent;
+  int kind;
 };
 
 class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
  public:
   LoadConnection(asio::io_context& io, const Options& o, MeshShape shape, unsigned seed,
-                 Clock::time_point measure_from, Clock::time_point stop_at)
-      : o_(o), socket_(io), timer_(io), points_(shape, o.points, seed),
-        measure_from_(measure_from), stop_at_(stop_at) {
+                 std::size_t bad_offset, Clock::time_point measure_from,
+                 Clock::time_point stop_at, std::function<void()> on_finished)
+      : o_(o), shape_(shape), socket_(io), timer_(io), points_(shape, o.points, seed),
+        measure_from_(measure_from), stop_at_(stop_at), bad_count_(bad_offset),
+        on_finished_(std::move(on_finished)) {
     for (const auto& [name, weight] : o.mix) {
-      names_.push_back(name);
+      labels_.push_back(name);
       weights_.push_back(weight);
     }
+    good_kinds_ = labels_.size();
+    for (const BadKind& b : kBadKinds) labels_.push_back(std::string("bad:") + b.name);
     pick_ = std::discrete_distribution<std::size_t>(weights_.begin(), weights_.end());
   }
 
@@ -189,13 +334,19 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     }
   }
 
-  Stats& stats() { return stats_; }
+  /// The drain period is over: whatever is still outstanding is lost.
+  void abort() { finish(); }
+
+  /// Final counts: requests still pending are lost.
+  Stats& stats() {
+    stats_.lost = pending_.size() + null_pending_.size();
+    return stats_;
+  }
 
  private:
-  std::string make_request() {
-    const std::string method = names_[pick_(points_.rng())];
+  json good_params(const std::string& method, std::string& wire_method) {
     json params = {{"mesh", o_.mesh}};
-    std::string wire_method = method;
+    wire_method = method;
     if (method == "distance" || method == "exact") {
       wire_method = "geodesic.distance";
       params["source"] = points_.wire();
@@ -219,26 +370,118 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       params["sources"] = s;
       params["targets"] = t;
     } else {
-      wire_method = method;  // any other method name, e.g. server.health
-      params = json::object();
+      params = json::object();  // any other method name, e.g. server.health
     }
+    return params;
+  }
+
+  /// Replaces the first point of a query's params (source, or sources[0]).
+  static void set_first_point(json& params, json point) {
+    if (params.contains("source")) {
+      params["source"] = std::move(point);
+    } else if (params.contains("sources")) {
+      params["sources"][0] = std::move(point);
+    } else {
+      params["source"] = std::move(point);  // a non-query method: still a bad request
+    }
+  }
+
+  bool next_is_bad() {
+    if (o_.bad <= 0) return false;
+    bad_credit_ += o_.bad;
+    if (bad_credit_ < 1) return false;
+    bad_credit_ -= 1;
+    return true;
+  }
+
+  Outgoing make_request() {
+    const std::size_t picked = pick_(points_.rng());
+    std::string wire_method;
+    json params = good_params(labels_[picked], wire_method);
     const std::uint64_t id = next_id_++;
-    sent_[id] = Clock::now();
-    return json({{"jsonrpc", "2.0"}, {"id", id}, {"method", wire_method}, {"params", params}})
-               .dump() +
-           "\n";
+    Outgoing out;
+    if (!next_is_bad()) {
+      out.kind = static_cast<int>(picked);
+      out.line = json({{"jsonrpc", "2.0"}, {"id", id}, {"method", wire_method}, {"params", params}})
+                     .dump();
+      out.line += '\n';
+      return out;
+    }
+    const std::size_t k = bad_count_++ % kBadKindCount;
+    const BadKind& bad = kBadKinds[k];
+    const std::string name = bad.name;
+    out.kind = static_cast<int>(good_kinds_ + k);
+    out.null_id = bad.null_id;
+    out.expects_reply = *bad.reason != '\0';
+    json request = {{"jsonrpc", "2.0"}, {"id", id}, {"method", wire_method}, {"params", params}};
+    if (name == "malformed-json") {
+      // nlohmann writes members in key order: "id" comes first, so the server reads it before
+      // the line breaks off and echoes it.
+      const std::string text = request.dump();
+      out.line = text.substr(0, text.size() * 2 / 3);
+    } else if (name == "unknown-method") {
+      request["method"] = "geodesic.distances";
+      out.line = request.dump();
+    } else if (name == "unknown-mesh") {
+      request["params"]["mesh"] = "no-such-mesh";
+      out.line = request.dump();
+    } else if (name == "face-out-of-range") {
+      set_first_point(request["params"],
+                      {{"face", shape_.faces + id % 1000}, {"bary", {0.2, 0.3, 0.5}}});
+      out.line = request.dump();
+    } else if (name == "bary-off-simplex") {
+      set_first_point(request["params"], {{"face", 0}, {"bary", {0.2, 0.3, 0.6}}});
+      out.line = request.dump();
+    } else if (name == "nan-coordinate") {
+      set_first_point(request["params"], "@NAN@");
+      out.line = request.dump();
+      const std::string marker = "\"@NAN@\"";
+      out.line.replace(out.line.find(marker), marker.size(), R"({"position":[NaN,0,0]})");
+    } else if (name == "wrong-type") {
+      set_first_point(request["params"], {{"face", "7"}, {"bary", {0.2, 0.3, 0.5}}});
+      out.line = request.dump();
+    } else if (name == "missing-id") {
+      request.erase("id");
+      request.erase("jsonrpc");
+      out.line = request.dump();
+    } else {  // notification
+      request.erase("id");
+      request["params"]["mesh"] = "no-such-mesh";
+      out.line = request.dump();
+    }
+    out.line += '\n';
+    return out;
   }
 
   void send_one() {
-    if (Clock::now() >= stop_at_) return;
-    ++in_flight_;
-    out_.push_back(make_request());
-    if (!writing_) write();
+    // A notification frees no slot (it is never answered): send until one request is in flight.
+    while (Clock::now() < stop_at_) {
+      Outgoing r = make_request();
+      const auto now = Clock::now();
+      ++stats_.sent_by_kind[labels_[static_cast<std::size_t>(r.kind)]];
+      if (r.expects_reply) {
+        ++stats_.sent;
+        ++in_flight_;
+        if (r.null_id) {
+          null_pending_.push_back({now, r.kind});
+        } else {
+          pending_.emplace(next_id_ - 1, Pending{now, r.kind});
+        }
+      } else {
+        ++stats_.notifications;
+      }
+      out_.push_back(std::move(r.line));
+      if (r.expects_reply) break;
+    }
+    if (!writing_ && !out_.empty()) write();
   }
 
   void tick() {
     const auto now = Clock::now();
-    if (now >= stop_at_) return;
+    if (now >= stop_at_) {
+      if (in_flight_ == 0) finish();
+      return;
+    }
     while (next_slot_ <= now) {
       if (in_flight_ < o_.depth) {
         send_one();
@@ -248,7 +491,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       }
       next_slot_ += std::chrono::duration_cast<Clock::duration>(interval_);
     }
-    timer_.expires_at(next_slot_);
+    timer_.expires_at(std::min(next_slot_, stop_at_));
     timer_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
       if (!ec) self->tick();
     });
@@ -263,64 +506,127 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     asio::async_write(socket_, buffers_, [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
       self->writing_ = false;
       self->writing_now_.clear();
-      if (ec) return;
-      if (!self->out_.empty()) self->write();
+      if (ec) {
+        self->connection_lost("write: " + ec.message());
+        return;
+      }
+      if (!self->out_.empty() && !self->finished_) self->write();
     });
   }
 
   void read() {
     asio::async_read_until(socket_, buffer_, '\n',
                            [self = shared_from_this()](boost::system::error_code ec, std::size_t n) {
-                             if (ec) return;
+                             if (ec) {
+                               self->connection_lost("read: " + ec.message());
+                               return;
+                             }
                              self->on_line(n);
                            });
+  }
+
+  void connection_lost(const std::string& why) {
+    if (finished_) return;  // closed by us
+    ++stats_.dropped;
+    stats_.note("connection closed by the server (" + why + ") with " +
+                std::to_string(in_flight_) + " requests in flight");
+    finish();
+  }
+
+  void finish() {
+    if (finished_) return;
+    finished_ = true;
+    boost::system::error_code ignored;
+    timer_.cancel();
+    socket_.close(ignored);
+    on_finished_();
+  }
+
+  void check_reply(const Pending& p, const geoprox::protocol::Reply& reply, Clock::time_point now,
+                   std::size_t bytes) {
+    ++stats_.answered;
+    const std::string& label = labels_[static_cast<std::size_t>(p.kind)];
+    if (static_cast<std::size_t>(p.kind) < good_kinds_) {
+      if (!reply.error) {
+        ++stats_.ok;
+      } else if (o_.allowed_errors.count(reply.error->reason) != 0) {
+        ++stats_.allowed_errors[reply.error->reason];
+      } else {
+        ++stats_.unexpected_errors[reply.error->reason];
+        stats_.note(label + " failed: " + reply.error->reason + ": " + reply.error->message);
+      }
+    } else {
+      const BadKind& bad = kBadKinds[static_cast<std::size_t>(p.kind) - good_kinds_];
+      const std::string got = reply.error ? reply.error->reason : "a result";
+      if (got == bad.reason) {
+        ++stats_.expected_errors[got];
+      } else {
+        ++stats_.wrong_replies[std::string(bad.name) + ": expected " + bad.reason + ", got " + got];
+        stats_.note(label + " got " + got + (reply.error ? ": " + reply.error->message : ""));
+      }
+    }
+    if (p.sent >= measure_from_ && p.sent < stop_at_) {
+      const double ms = std::chrono::duration<double, std::milli>(now - p.sent).count();
+      ++stats_.measured;
+      stats_.measured_bytes += bytes;
+      stats_.latencies_ms.push_back(ms);
+      stats_.latencies_by_kind[label].push_back(ms);
+    }
   }
 
   void on_line(std::size_t n) {
     std::string line(asio::buffers_begin(buffer_.data()), asio::buffers_begin(buffer_.data()) + static_cast<std::ptrdiff_t>(n));
     buffer_.consume(n);
     const auto now = Clock::now();
+    bool matched = false;
     try {
       const geoprox::protocol::Reply reply = geoprox::protocol::parse_reply(line);
-      const std::uint64_t id = std::stoull(reply.id.json_text());
-      auto it = sent_.find(id);
-      if (it != sent_.end()) {
-        if (it->second >= measure_from_) {
-          stats_.latencies_ms.push_back(
-              std::chrono::duration<double, std::milli>(now - it->second).count());
-          stats_.bytes += n;
-          if (reply.error) {
-            ++stats_.errors[reply.error->reason];
-          } else {
-            ++stats_.ok;
-          }
+      if (reply.id.is_null()) {
+        if (!null_pending_.empty()) {
+          const Pending p = null_pending_.front();
+          null_pending_.pop_front();
+          check_reply(p, reply, now, n);
+          matched = true;
         }
-        sent_.erase(it);
+      } else {
+        const std::string& text = reply.id.json_text();
+        const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+        auto it = digits ? pending_.find(std::stoull(text)) : pending_.end();
+        if (it != pending_.end()) {
+          check_reply(it->second, reply, now, n);
+          pending_.erase(it);
+          matched = true;
+        }
       }
     } catch (const std::exception& e) {
-      ++stats_.errors["unparseable reply"];
+      stats_.note(std::string("unreadable reply (") + e.what() + ")");
     }
-    --in_flight_;
-    if (o_.rate <= 0) {
-      send_one();
-    } else if (owed_ > 0 && now < stop_at_) {
-      --owed_;
-      send_one();
+    if (matched) {
+      --in_flight_;
+      if (o_.rate <= 0) {
+        send_one();
+      } else if (owed_ > 0 && now < stop_at_) {
+        --owed_;
+        send_one();
+      }
+    } else {
+      ++stats_.unexpected_replies;
+      stats_.note("unexpected reply: " + line.substr(0, 300));
     }
     if (in_flight_ > 0 || now < stop_at_) {
       read();
     } else {
-      boost::system::error_code ignored;
-      timer_.cancel();
-      socket_.close(ignored);
+      finish();
     }
   }
 
   const Options& o_;
+  MeshShape shape_;
   tcp::socket socket_;
   asio::steady_timer timer_;
   PointSource points_;
-  std::vector<std::string> names_;
+  std::vector<std::string> labels_;
+  std::size_t good_kinds_ = 0;
   std::vector<double> weights_;
   std::discrete_distribution<std::size_t> pick_;
   Clock::time_point measure_from_, stop_at_;
@@ -330,10 +636,15 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
   std::vector<std::string> out_, writing_now_;
   std::vector<asio::const_buffer> buffers_;
   bool writing_ = false;
+  bool finished_ = false;
   int in_flight_ = 0;
   std::uint64_t owed_ = 0;
   std::uint64_t next_id_ = 1;
-  std::unordered_map<std::uint64_t, Clock::time_point> sent_;
+  double bad_credit_ = 0;
+  std::size_t bad_count_;
+  std::unordered_map<std::uint64_t, Pending> pending_;
+  std::deque<Pending> null_pending_;
+  std::function<void()> on_finished_;
   Stats stats_;
 };
 
@@ -343,6 +654,51 @@ double percentile(std::vector<double>& v, double p) {
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
   return v[k];
 }
+
+json latency_summary(std::vector<double>& v) {
+  return {{"count", v.size()},
+          {"p50", percentile(v, 0.5)},
+          {"p99", percentile(v, 0.99)},
+          {"p999", percentile(v, 0.999)},
+          {"max", v.empty() ? 0.0 : *std::max_element(v.begin(), v.end())}};
+}
+
+/// VmRSS of /proc/PID/status in KiB; nullopt when the process is gone.
+std::optional<std::uint64_t> resident_kib(int pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string key;
+  while (status >> key) {
+    if (key == "VmRSS:") {
+      std::uint64_t kib = 0;
+      if (status >> kib) return kib;
+      return std::nullopt;
+    }
+    status.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+  }
+  return std::nullopt;
+}
+
+struct MemorySamples {
+  int pid = 0;
+  Clock::time_point t0;
+  std::vector<std::pair<double, std::uint64_t>> samples;  ///< (s since start, KiB)
+  std::optional<std::uint64_t> start, end;
+  bool vanished = false;
+  std::optional<std::uint64_t> take() {
+    const auto kib = resident_kib(pid);
+    if (!kib) {
+      vanished = true;
+      return std::nullopt;
+    }
+    samples.emplace_back(std::chrono::duration<double>(Clock::now() - t0).count(), *kib);
+    return kib;
+  }
+  std::uint64_t max() const {
+    std::uint64_t m = 0;
+    for (const auto& s : samples) m = std::max(m, s.second);
+    return m;
+  }
+};
 
 MeshShape query_shape(const Options& o) {
   asio::io_context io;
@@ -365,49 +721,206 @@ MeshShape query_shape(const Options& o) {
   return {reply["result"]["vertices"].get<std::uint64_t>(), reply["result"]["faces"].get<std::uint64_t>()};
 }
 
+/// Writes `text` to a temporary name beside `path`, then renames it over `path`.
+void write_atomically(const std::string& path, const std::string& text) {
+  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write " + temporary);
+  }
+  std::filesystem::rename(temporary, path);
+}
+
 int run_network(const Options& o) {
   const MeshShape shape = query_shape(o);
+  MemorySamples memory;
+  memory.pid = o.daemon_pid;
+  if (o.daemon_pid > 0 && !resident_kib(o.daemon_pid)) {
+    usage("no VmRSS in /proc/" + std::to_string(o.daemon_pid) + "/status");
+  }
   asio::io_context io(1);
   const auto start = Clock::now();
+  memory.t0 = start;
   const auto measure_from = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.warmup));
   const auto stop_at = measure_from + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration));
   std::vector<std::shared_ptr<LoadConnection>> connections;
+  int active = o.connections;
+  asio::steady_timer drain_timer(io), memory_timer(io);
+  auto on_finished = [&] {
+    if (--active == 0) {
+      drain_timer.cancel();
+      memory_timer.cancel();
+    }
+  };
   const tcp::endpoint endpoint(asio::ip::make_address(o.host), o.port);
   for (int i = 0; i < o.connections; ++i) {
-    connections.push_back(std::make_shared<LoadConnection>(io, o, shape, o.seed * 1000 + i, measure_from, stop_at));
+    connections.push_back(std::make_shared<LoadConnection>(
+        io, o, shape, o.seed * 1000 + static_cast<unsigned>(i), static_cast<std::size_t>(i),
+        measure_from, stop_at, on_finished));
     connections.back()->start(endpoint);
   }
-  io.run();
-  Stats all;
-  for (auto& c : connections) {
-    Stats& s = c->stats();
-    all.latencies_ms.insert(all.latencies_ms.end(), s.latencies_ms.begin(), s.latencies_ms.end());
-    for (auto& [k, v] : s.errors) all.errors[k] += v;
-    all.ok += s.ok;
-    all.late += s.late;
-    all.bytes += s.bytes;
+  drain_timer.expires_at(stop_at + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.drain)));
+  drain_timer.async_wait([&](boost::system::error_code ec) {
+    if (ec) return;
+    for (auto& c : connections) c->abort();
+  });
+  std::function<void(boost::system::error_code)> sample = [&](boost::system::error_code ec) {
+    if (ec || active == 0) return;
+    const auto kib = memory.take();
+    if (!memory.start) memory.start = kib;
+    if (o.rss_every > 0 && kib) {
+      memory_timer.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.rss_every)));
+      memory_timer.async_wait(sample);
+    }
+  };
+  if (o.daemon_pid > 0) {
+    memory_timer.expires_at(measure_from);
+    memory_timer.async_wait(sample);
   }
-  const std::size_t total = all.latencies_ms.size();
+  io.run();
+  if (o.daemon_pid > 0) {
+    memory.end = memory.take();
+    if (!memory.start) memory.start = memory.end;  // the run ended before the warmup did
+  }
+
+  Stats all;
+  for (auto& c : connections) all.merge(c->stats());
+
+  std::vector<std::string> failures;
+  auto total = [](const std::map<std::string, std::uint64_t>& m) {
+    std::uint64_t n = 0;
+    for (const auto& [k, v] : m) n += v;
+    return n;
+  };
+  if (all.answered == 0) failures.push_back("no request was answered");
+  if (all.lost > 0) failures.push_back(std::to_string(all.lost) + " requests lost (no reply)");
+  if (all.unexpected_replies > 0) {
+    failures.push_back(std::to_string(all.unexpected_replies) + " unexpected replies");
+  }
+  if (const auto n = total(all.unexpected_errors)) {
+    failures.push_back(std::to_string(n) + " good requests failed");
+  }
+  if (const auto n = total(all.wrong_replies)) {
+    failures.push_back(std::to_string(n) + " bad requests got the wrong reply");
+  }
+  if (all.dropped > 0) failures.push_back(std::to_string(all.dropped) + " connections dropped");
+  if (memory.vanished) failures.push_back("the daemon (pid " + std::to_string(o.daemon_pid) + ") is gone");
+
+  const double seconds = o.duration;
   std::printf("mesh %s (%llu vertices, %llu faces), %d connections x depth %d, %s, mix",
               o.mesh.c_str(), static_cast<unsigned long long>(shape.vertices),
               static_cast<unsigned long long>(shape.faces), o.connections, o.depth,
               o.rate > 0 ? ("rate " + std::to_string(static_cast<long>(o.rate)) + "/s").c_str()
                          : "closed loop");
   for (const auto& [k, v] : o.mix) std::printf(" %s=%g", k.c_str(), v);
-  std::printf(", points %s\n", o.points.c_str());
-  std::printf("requests     %zu in %.1f s (%llu ok, %zu errors)\n", total, o.duration,
-              static_cast<unsigned long long>(all.ok), total - all.ok);
-  std::printf("throughput   %.0f req/s, %.1f MB/s of replies\n", static_cast<double>(total) / o.duration,
-              static_cast<double>(all.bytes) / o.duration / 1e6);
-  std::printf("latency ms   p50 %.3f  p99 %.3f  p999 %.3f  max %.3f\n",
-              percentile(all.latencies_ms, 0.5), percentile(all.latencies_ms, 0.99),
-              percentile(all.latencies_ms, 0.999),
-              all.latencies_ms.empty() ? 0.0 : *std::max_element(all.latencies_ms.begin(), all.latencies_ms.end()));
-  if (o.rate > 0) std::printf("late slots   %llu (depth was full when the rate wanted a request)\n", static_cast<unsigned long long>(all.late));
-  for (const auto& [reason, n] : all.errors) {
-    std::printf("error        %-20s %llu\n", reason.c_str(), static_cast<unsigned long long>(n));
+  std::printf(", bad %g, points %s\n", o.bad, o.points.c_str());
+  std::printf("requests     %llu sent (+%llu notifications), %llu answered (%llu good ok), "
+              "%llu lost, %llu unexpected replies, %llu connections dropped\n",
+              static_cast<unsigned long long>(all.sent),
+              static_cast<unsigned long long>(all.notifications),
+              static_cast<unsigned long long>(all.answered),
+              static_cast<unsigned long long>(all.ok),
+              static_cast<unsigned long long>(all.lost),
+              static_cast<unsigned long long>(all.unexpected_replies),
+              static_cast<unsigned long long>(all.dropped));
+  std::printf("measured     %llu replies to the requests sent in the %.1f s after the warmup\n",
+              static_cast<unsigned long long>(all.measured), seconds);
+  std::printf("throughput   %.0f req/s, %.1f MB/s of replies\n",
+              static_cast<double>(all.measured) / seconds,
+              static_cast<double>(all.measured_bytes) / seconds / 1e6);
+  json latency = latency_summary(all.latencies_ms);
+  std::printf("latency ms   p50 %.3f  p99 %.3f  p999 %.3f  max %.3f\n", latency["p50"].get<double>(),
+              latency["p99"].get<double>(), latency["p999"].get<double>(), latency["max"].get<double>());
+  json by_kind = json::object();
+  for (auto& [kind, v] : all.latencies_by_kind) {
+    by_kind[kind] = latency_summary(v);
+    const json& s = by_kind[kind];
+    std::printf("  %-24s n %-8llu p50 %.3f  p99 %.3f  p999 %.3f  max %.3f\n", kind.c_str(),
+                static_cast<unsigned long long>(v.size()), s["p50"].get<double>(),
+                s["p99"].get<double>(), s["p999"].get<double>(), s["max"].get<double>());
   }
-  return 0;
+  if (o.rate > 0) std::printf("late slots   %llu (depth was full when the rate wanted a request)\n", static_cast<unsigned long long>(all.late));
+  for (const auto& [reason, n] : all.expected_errors) {
+    std::printf("expected     %-20s %llu\n", reason.c_str(), static_cast<unsigned long long>(n));
+  }
+  for (const auto& [reason, n] : all.allowed_errors) {
+    std::printf("tolerated    %-20s %llu\n", reason.c_str(), static_cast<unsigned long long>(n));
+  }
+  for (const auto& [reason, n] : all.unexpected_errors) {
+    std::printf("UNEXPECTED   %-20s %llu\n", reason.c_str(), static_cast<unsigned long long>(n));
+  }
+  for (const auto& [what, n] : all.wrong_replies) {
+    std::printf("WRONG REPLY  %s: %llu\n", what.c_str(), static_cast<unsigned long long>(n));
+  }
+  for (const auto& line : all.samples) std::printf("example      %s\n", line.c_str());
+  json memory_json = nullptr;
+  if (o.daemon_pid > 0) {
+    const auto s = memory.start.value_or(0), e = memory.end.value_or(0);
+    std::printf("daemon RSS   start %llu KiB, end %llu KiB, max %llu KiB (%+lld KiB), %zu samples%s\n",
+                static_cast<unsigned long long>(s), static_cast<unsigned long long>(e),
+                static_cast<unsigned long long>(memory.max()),
+                static_cast<long long>(e) - static_cast<long long>(s), memory.samples.size(),
+                memory.vanished ? "; the daemon is gone" : "");
+    json samples = json::array();
+    for (const auto& [t, kib] : memory.samples) samples.push_back({t, kib});
+    memory_json = {{"pid", o.daemon_pid},
+                   {"start_kib", memory.start ? json(*memory.start) : json(nullptr)},
+                   {"end_kib", memory.end ? json(*memory.end) : json(nullptr)},
+                   {"max_kib", memory.max()},
+                   {"alive_at_end", !memory.vanished},
+                   {"samples", samples}};
+  }
+  std::printf("result       %s", failures.empty() ? "PASS" : "FAIL:");
+  for (std::size_t i = 0; i < failures.size(); ++i) {
+    std::printf("%s %s", i == 0 ? "" : ";", failures[i].c_str());
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+
+  if (!o.json_path.empty()) {
+    json mix = json::object();
+    for (const auto& [k, v] : o.mix) mix[k] = v;
+    const json summary = {
+        {"mesh", o.mesh},
+        {"vertices", shape.vertices},
+        {"faces", shape.faces},
+        {"connections", o.connections},
+        {"depth", o.depth},
+        {"rate", o.rate},
+        {"duration_s", o.duration},
+        {"warmup_s", o.warmup},
+        {"drain_s", o.drain},
+        {"mix", mix},
+        {"bad_fraction", o.bad},
+        {"allowed_errors", o.allowed_errors},
+        {"sent", all.sent},
+        {"notifications", all.notifications},
+        {"sent_by_kind", all.sent_by_kind},
+        {"answered", all.answered},
+        {"ok", all.ok},
+        {"lost", all.lost},
+        {"unexpected_replies", all.unexpected_replies},
+        {"connections_dropped", all.dropped},
+        {"late", all.late},
+        {"measured", all.measured},
+        {"throughput_rps", static_cast<double>(all.measured) / seconds},
+        {"reply_mb_per_s", static_cast<double>(all.measured_bytes) / seconds / 1e6},
+        {"latency_ms", latency},
+        {"latency_ms_by_kind", by_kind},
+        {"expected_errors", all.expected_errors},
+        {"tolerated_errors", all.allowed_errors},
+        {"unexpected_errors", all.unexpected_errors},
+        {"wrong_replies", all.wrong_replies},
+        {"examples", all.samples},
+        {"memory", memory_json},
+        {"passed", failures.empty()},
+        {"failures", failures},
+    };
+    write_atomically(o.json_path, summary.dump(2) + "\n");
+  }
+  return failures.empty() ? 0 : 1;
 }
 
 int run_in_process(const Options& o) {
