@@ -50,6 +50,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <vector>
 
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
@@ -156,7 +157,8 @@ inline constexpr std::uint64_t kMeshFingerprintSeed = 0x47656f50726f784dull;    
 /// face) and the IEEE bits of the intrinsic edge lengths (not the positions).
 std::uint64_t mesh_fingerprint(const TriangleMesh& mesh, const IntrinsicGeometry& geometry);
 
-/// Writes the bundle to a unique temporary file next to `path`, fsyncs it, renames it over
+/// Writes the bundle to a unique temporary file next to `path` (named `<path>.tmp-XXXXXX`, six
+/// letters or digits, and locked with flock(2) while it is written), fsyncs it, renames it over
 /// `path` and fsyncs the directory: `path` is either the old file or the complete new one.
 /// Throws InvalidInput ("InvalidGraph") if the graph's arrays are inconsistent with each other
 /// or with the mesh (before anything is created), FileError ("WriteError", naming the path and
@@ -164,6 +166,13 @@ std::uint64_t mesh_fingerprint(const TriangleMesh& mesh, const IntrinsicGeometry
 void write_graph_file(const std::string& path, const TriangleMesh& mesh,
                       const IntrinsicGeometry& geometry, const ProximityGraph& graph,
                       const GraphFileMetadata& metadata = {});
+
+/// Removes the temporaries of write_graph_file(`path`) that a writer killed mid-write (kill -9,
+/// power loss) left behind: files named `<path>.tmp-XXXXXX` whose lock no one holds. The
+/// temporary of a live writer (another process writing the same path) is locked and left
+/// alone. Returns the names removed; never throws (a directory that cannot be read removes
+/// nothing).
+std::vector<std::string> remove_stale_graph_temporaries(const std::string& path);
 
 struct GraphFileOpenOptions {
   /// Hash the whole file and compare with the stored checksum (catches any flipped bit).

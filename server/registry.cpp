@@ -61,6 +61,16 @@ ExactGeodesicSolver& LoadedMesh::Lease::exact_solver() {
   return *slot_->exact;
 }
 
+ExponentialMap& LoadedMesh::Lease::exponential_map() {
+  if (!slot_->expmap) slot_->expmap = std::make_unique<ExponentialMap>(owner_->query());
+  return *slot_->expmap;
+}
+
+GeodesicSpline& LoadedMesh::Lease::spline() {
+  if (!slot_->spline) slot_->spline = std::make_unique<GeodesicSpline>(owner_->query());
+  return *slot_->spline;
+}
+
 LoadedMesh::Lease LoadedMesh::lease() const {
   std::unique_lock lock(pool_mutex_);
   for (;;) {
@@ -73,7 +83,7 @@ LoadedMesh::Lease LoadedMesh::lease() const {
       ++created_;
       lock.unlock();
       try {
-        auto slot = std::make_unique<ScratchSlot>(ScratchSlot{query_->make_scratch(), nullptr});
+        auto slot = std::make_unique<ScratchSlot>(ScratchSlot{query_->make_scratch(), nullptr, nullptr, nullptr});
         return Lease(this, std::move(slot));
       } catch (...) {
         std::lock_guard relock(pool_mutex_);
@@ -302,6 +312,11 @@ void Registry::run_job(const Job& job) {
   } catch (const std::exception& e) {
     fail(entry, entry->mesh_path().filename().string() + ": " + describe_exception(e));
     return;
+  }
+  // Temporaries of a write that a kill -9 interrupted: never opened, removed here.
+  for (const std::string& stale : remove_stale_graph_temporaries(entry->graph_path().string())) {
+    spdlog::warn("mesh {}: removed {}, left by a graph write that was interrupted", entry->id(),
+                 stale);
   }
   if (job.kind == JobKind::Load) {
     std::error_code ec;

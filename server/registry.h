@@ -29,7 +29,9 @@
 #include <vector>
 
 #include "core/exact_geodesic.h"
+#include "core/exponential_map.h"
 #include "core/geodesic_query.h"
+#include "core/geodesic_spline.h"
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
@@ -47,11 +49,14 @@ struct MeshData {
   IntrinsicGeometry geometry;
 };
 
-/// Per-request working memory on one LoadedMesh: the query scratch and, for exact distance
-/// requests, an exact solver (created on first use, then reused).
+/// Per-request working memory on one LoadedMesh: the query scratch and, for the requests that
+/// need them, an exact solver, an exponential map and a spline evaluator (each created on first
+/// use, then reused: they hold buffers sized by the mesh).
 struct ScratchSlot {
   QueryScratch scratch;
   std::unique_ptr<ExactGeodesicSolver> exact;
+  std::unique_ptr<ExponentialMap> expmap;
+  std::unique_ptr<GeodesicSpline> spline;
 };
 
 class LoadedMesh {
@@ -73,6 +78,8 @@ class LoadedMesh {
     ~Lease();
     QueryScratch& scratch() { return slot_->scratch; }
     ExactGeodesicSolver& exact_solver();
+    ExponentialMap& exponential_map();
+    GeodesicSpline& spline();
 
    private:
     friend class LoadedMesh;

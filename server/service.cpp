@@ -253,9 +253,8 @@ protocol::PathPoint to_wire_point(const PathPoint& point, const TriangleMesh& me
 protocol::ExpmapResult run_expmap(const protocol::ExpmapParams& p, const LoadedMesh& m,
                                   RequestContext& context) {
   const SurfacePoint source = resolve(p.source, m, "params.source");
-  context.interrupt.check();
-  // Its own scratch and solvers: the map needs a whole bounded solve, not a leased slot's.
-  ExponentialMap map(m.query());
+  LoadedMesh::Lease lease = lease_for(m, context);
+  ExponentialMap& map = lease.exponential_map();  // the slot's: buffers sized by the mesh
   ExponentialMapOptions options;
   options.radius = p.radius;
   options.mode = p.exact ? ExponentialMapMode::Exact : ExponentialMapMode::Graph;
@@ -285,8 +284,8 @@ protocol::SplineResult run_spline(const protocol::SplineParams& p, const LoadedM
   for (std::size_t i = 0; i < p.control.size(); ++i) {
     control.push_back(resolve(p.control[i], m, indexed("control", i, 0, nullptr)));
   }
-  context.interrupt.check();
-  GeodesicSpline spline(m.query());
+  LoadedMesh::Lease lease = lease_for(m, context);
+  GeodesicSpline& spline = lease.spline();  // the slot's: buffers sized by the mesh
   GeodesicSplineOptions options;
   options.type = p.type == protocol::SplineKind::Bezier ? SplineType::Bezier : SplineType::BSpline;
   options.samples = p.samples;

@@ -538,6 +538,57 @@ TEST_F(DamagedGraphFile, InvalidContentsAreRefusedEvenWithoutChecksum) {
   }
 }
 
+// Opening with the checksum checks single values on the bytes it reads for the checksum, not
+// on the mapping: a file whose checksum was recomputed after the damage (a crafted file) is
+// still refused, with the value named.
+TEST_F(DamagedGraphFile, InvalidValuesAreRefusedEvenWithAValidChecksum) {
+  using Id = GraphFileSectionId;
+  struct Case {
+    const char* name;
+    std::function<void(std::vector<unsigned char>&)> damage;
+    std::string expect;
+  };
+  const std::uint32_t ns = fx_.graph.sample_vertex.size();
+  const std::uint64_t last_cover = fx_.graph.cover_sample.size() - 1;
+  const std::vector<Case> cases = {
+      {"face vertex out of range",
+       [&](auto& b) { poke<std::uint32_t>(b, sec(Id::Faces).offset + 12 * 7 + 8, 1u << 30); },
+       "face 7 has a vertex id out of range"},
+      {"NaN coordinate",
+       [&](auto& b) { poke<double>(b, sec(Id::Positions).offset + 24 * 3 + 16, std::nan("")); },
+       "vertex 3 has a non-finite coordinate"},
+      {"negative edge length",
+       [&](auto& b) { poke<double>(b, sec(Id::EdgeLengths).offset + 8 * 11, -0.5); },
+       "edge 11 has length"},
+      {"infinite graph edge distance",
+       [&](auto& b) {
+         poke<double>(b, sec(Id::EdgeDistance).offset + 8 * 4, HUGE_VAL);
+       },
+       "graph edge 4 has distance"},
+      {"last cover entry out of range",
+       [&](auto& b) { poke<std::uint32_t>(b, sec(Id::CoverSample).offset + 4 * last_cover, ns); },
+       "cover entry " + std::to_string(last_cover) + " names sample"},
+      {"negative cover distance",
+       [&](auto& b) { poke<float>(b, sec(Id::CoverDistance).offset + 4 * 9, -1.0f); },
+       "cover entry 9 has distance"},
+  };
+  for (const Case& c : cases) {
+    std::vector<unsigned char> bytes = good_;
+    c.damage(bytes);
+    poke<std::uint64_t>(bytes, bytes.size() - 8,
+                        graph_file_hash(bytes.data(), bytes.size() - 8, kGraphFileChecksumSeed));
+    const std::string got = open_bytes(bytes);
+    EXPECT_TRUE(starts_with(got, "CorruptGraph: ")) << c.name << ": " << got;
+    EXPECT_NE(got.find(c.expect), std::string::npos) << c.name << ": " << got;
+  }
+  // -0.0 is a valid distance (the fast check sends it to the exact one, which accepts it).
+  std::vector<unsigned char> bytes = good_;
+  poke<float>(bytes, sec(Id::CoverDistance).offset, -0.0f);
+  poke<std::uint64_t>(bytes, bytes.size() - 8,
+                      graph_file_hash(bytes.data(), bytes.size() - 8, kGraphFileChecksumSeed));
+  EXPECT_EQ(open_bytes(bytes), "opened");
+}
+
 TEST_F(DamagedGraphFile, InconsistentHeaderOrSectionTable) {
   // Counts that disagree with the section table (checked before the checksum).
   {
