@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/errors.h"
+#include "core/quaternary_heap.h"
 
 namespace geoprox {
 
@@ -128,48 +129,13 @@ void ExactGeodesicSolver::touch_face(std::uint32_t f) {
 }
 
 void ExactGeodesicSolver::push(double key, std::uint32_t item) {
-  // A 4-ary min-heap: half the depth of a binary one, and the four children of a node share a
-  // cache line, which matters with millions of pushes and pops per solve.
-  std::size_t i = queue_.size();
-  queue_.push_back({key, item});
-  while (i > 0) {
-    const std::size_t parent = (i - 1) / 4;
-    if (!(key < queue_[parent].key)) break;
-    queue_[i] = queue_[parent];
-    i = parent;
-  }
-  queue_[i] = {key, item};
+  quaternary_heap_push(queue_, QueueEntry{key, item});
   stats_.peak_queue = std::max(stats_.peak_queue, queue_.size());
 }
 
 void ExactGeodesicSolver::pop() {
   ++stats_.queue_pops;
-  const QueueEntry last = queue_.back();
-  queue_.pop_back();
-  const std::size_t n = queue_.size();
-  if (n == 0) return;
-  std::size_t i = 0;
-  while (true) {
-    const std::size_t first = 4 * i + 1;
-    if (first >= n) break;
-    std::size_t best = first;
-    if (first + 4 <= n) {
-      // All four children: a tournament the compiler turns into conditional moves (which child
-      // is smallest is a coin toss, a branch on it mispredicted half the time).
-      const QueueEntry* c = &queue_[first];
-      const std::size_t left = c[1].key < c[0].key ? 1 : 0;
-      const std::size_t right = c[3].key < c[2].key ? 3 : 2;
-      best = first + (c[right].key < c[left].key ? right : left);
-    } else {
-      for (std::size_t c = first + 1; c < n; ++c) {
-        if (queue_[c].key < queue_[best].key) best = c;
-      }
-    }
-    if (!(queue_[best].key < last.key)) break;
-    queue_[i] = queue_[best];
-    i = best;
-  }
-  queue_[i] = last;
+  quaternary_heap_pop(queue_);
 }
 
 void ExactGeodesicSolver::relax_vertex(std::uint32_t v, double distance, std::int32_t via_window,

@@ -151,7 +151,6 @@ class ExactGeodesicSolver {
   struct QueueEntry {
     double key;
     std::uint32_t item;  // window index, or kVertexItem | vertex
-    bool operator>(const QueueEntry& other) const { return key > other.key; }
   };
   struct Candidate;
 

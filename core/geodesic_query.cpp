@@ -12,6 +12,7 @@
 
 #include "core/errors.h"
 #include "core/geodesic_tracing.h"
+#include "core/quaternary_heap.h"
 
 namespace geoprox {
 
@@ -21,51 +22,7 @@ struct HeapEntry {
   double key;
   std::uint32_t node;
   std::uint32_t side;  // 0: from s, 1: from t (meet-in-the-middle shares one heap)
-  bool operator>(const HeapEntry& other) const { return key > other.key; }
 };
-
-// A 4-ary min-heap over a reused vector: half the depth of a binary one, the four children of
-// a node in one cache line, and the smallest child picked without a branch (which child wins is
-// a coin toss, a branch on it mispredicted half the time).
-void heap_push(std::vector<HeapEntry>& heap, HeapEntry entry) {
-  std::size_t i = heap.size();
-  heap.push_back(entry);
-  while (i > 0) {
-    const std::size_t parent = (i - 1) / 4;
-    if (!(entry.key < heap[parent].key)) break;
-    heap[i] = heap[parent];
-    i = parent;
-  }
-  heap[i] = entry;
-}
-HeapEntry heap_pop(std::vector<HeapEntry>& heap) {
-  const HeapEntry top = heap.front();
-  const HeapEntry last = heap.back();
-  heap.pop_back();
-  const std::size_t n = heap.size();
-  if (n == 0) return top;
-  std::size_t i = 0;
-  while (true) {
-    const std::size_t first = 4 * i + 1;
-    if (first >= n) break;
-    std::size_t best = first;
-    if (first + 4 <= n) {
-      const HeapEntry* c = &heap[first];
-      const std::size_t left = c[1].key < c[0].key ? 1 : 0;
-      const std::size_t right = c[3].key < c[2].key ? 3 : 2;
-      best = first + (c[right].key < c[left].key ? right : left);
-    } else {
-      for (std::size_t c = first + 1; c < n; ++c) {
-        if (heap[c].key < heap[best].key) best = c;
-      }
-    }
-    if (!(heap[best].key < last.key)) break;
-    heap[i] = heap[best];
-    i = best;
-  }
-  heap[i] = last;
-  return top;
-}
 
 double bounding_box_diagonal(const TriangleMesh& mesh) {
   Vec3 lo{kInfinity, kInfinity, kInfinity}, hi{-kInfinity, -kInfinity, -kInfinity};
@@ -204,7 +161,8 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
   // the embedding's (not under another metric).
   euclidean_lower_bound_ = true;
   for (std::uint32_t e = 0; e < mesh.num_edges() && euclidean_lower_bound_; ++e) {
-    const double chord = norm(mesh.position(mesh.edge_origin(e)) - mesh.position(mesh.edge_target(e)));
+    const double chord =
+        norm(mesh.position(mesh.edge_origin(e)) - mesh.position(mesh.edge_target(e)));
     euclidean_lower_bound_ = std::abs(geometry.edge_length(e) - chord) <= 1e-12 * chord;
   }
 }
@@ -415,7 +373,9 @@ void seed_side(QueryScratch::Impl& s, int side, std::span<const std::pair<std::u
     if (d < s.label[side][i]) {
       s.label[side][i] = d;
       s.parent[side][i] = kFromQueryPoint;
-      if (push) heap_push(s.heap[side], {d + potential(i), i, static_cast<std::uint32_t>(side)});
+      if (push)
+        quaternary_heap_push(s.heap[side],
+                             HeapEntry{d + potential(i), i, static_cast<std::uint32_t>(side)});
       on_label(i);
     }
   }
@@ -465,7 +425,7 @@ bool settle_and_relax(QueryScratch::Impl& s, const ProximityGraphView& graph, co
       s.label[side][j] = d;
       s.parent[side][j] = static_cast<std::int32_t>(top.node);
       s.parent_edge[side][j] = e;
-      heap_push(heap, {d + potential(j), j, side});
+      quaternary_heap_push(heap, HeapEntry{d + potential(j), j, side});
       on_label(j);
     }
   }
@@ -512,7 +472,7 @@ double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& f
     // cancel along any path).
     if (top0 + top1 >= m.best) break;
     const int side = top0 <= top1 ? 0 : 1;
-    const HeapEntry top = heap_pop(s.heap[side]);
+    const HeapEntry top = quaternary_heap_pop(s.heap[side]);
     s.poll();
     const bool fresh = side == 0 ? settle_and_relax(s, graph_, top, s.heap[0], check, forward)
                                  : settle_and_relax(s, graph_, top, s.heap[1], check, backward);
@@ -534,11 +494,12 @@ double GeodesicQuery::search_meet_in_the_middle(QueryScratch::Impl& s, const Lin
     const Links& links = side == 0 ? from_s : from_t;
     seed_side(s, side, links.samples, false, check);
     for (const auto& [i, d] : links.samples) {
-      if (s.label[side][i] == d) heap_push(heap, {d, i, static_cast<std::uint32_t>(side)});
+      if (s.label[side][i] == d)
+        quaternary_heap_push(heap, HeapEntry{d, i, static_cast<std::uint32_t>(side)});
     }
   }
   while (!heap.empty()) {
-    const HeapEntry top = heap_pop(heap);
+    const HeapEntry top = quaternary_heap_pop(heap);
     s.poll();
     // Theorem 3.1: some sample on the best path has both labels <= (best + R) / 2.
     if (top.key > 0.5 * (m.best + R)) break;
@@ -557,7 +518,7 @@ double GeodesicQuery::search_dijkstra(QueryScratch::Impl& s, const Links& from_s
   seed_side(s, 1, from_t.samples, false, [](std::uint32_t) {});
   seed_side(s, 0, from_s.samples, true, check);
   while (!s.heap[0].empty()) {
-    const HeapEntry top = heap_pop(s.heap[0]);
+    const HeapEntry top = quaternary_heap_pop(s.heap[0]);
     s.poll();
     if (top.key >= m.best) break;  // t is settled
     if (settle_and_relax(s, graph_, top, s.heap[0], check)) ++settled;
@@ -839,12 +800,12 @@ void GeodesicQuery::graph_distances_from(QueryScratch::Impl& s,
       if (d < s.label[0][i]) {
         s.label[0][i] = d;
         s.origin[i] = k;
-        heap_push(s.heap[0], {d, i, 0});
+        quaternary_heap_push(s.heap[0], HeapEntry{d, i, 0});
       }
     }
   }
   while (!s.heap[0].empty()) {
-    const HeapEntry top = heap_pop(s.heap[0]);
+    const HeapEntry top = quaternary_heap_pop(s.heap[0]);
     s.poll();
     if (top.key > max_distance) break;
     if (top.key > s.label[0][top.node] || s.is_settled(0, top.node)) continue;
@@ -857,7 +818,7 @@ void GeodesicQuery::graph_distances_from(QueryScratch::Impl& s,
       if (d < s.label[0][j]) {
         s.label[0][j] = d;
         s.origin[j] = s.origin[top.node];
-        heap_push(s.heap[0], {d, j, 0});
+        quaternary_heap_push(s.heap[0], HeapEntry{d, j, 0});
       }
     }
   }

@@ -239,7 +239,8 @@ std::uint64_t first_index_where(std::span<const T> values, auto&& bad) {
 std::string face_ids_problem(std::span<const std::uint32_t> ids, std::uint64_t first,
                              std::uint64_t nv, std::span<const Triangle> faces) {
   if (!any_bits_at_or_above(ids, static_cast<std::uint32_t>(nv))) return {};
-  const std::uint64_t f = (first + first_index_where(ids, [&](std::uint32_t id) { return id >= nv; })) / 3;
+  const std::uint64_t f =
+      (first + first_index_where(ids, [&](std::uint32_t id) { return id >= nv; })) / 3;
   const Triangle& t = faces[f];
   return "face " + std::to_string(f) + " has a vertex id out of range (" + std::to_string(t[0]) +
          ", " + std::to_string(t[1]) + ", " + std::to_string(t[2]) + "; " + std::to_string(nv) +
@@ -248,7 +249,8 @@ std::string face_ids_problem(std::span<const std::uint32_t> ids, std::uint64_t f
 
 std::string coordinates_problem(std::span<const double> coords, std::uint64_t first) {
   if (!any_bits_at_or_above(coords, kDoubleInfinityBits << 1, 1)) return {};  // sign shifted out
-  const std::uint64_t k = first + first_index_where(coords, [](double c) { return !std::isfinite(c); });
+  const std::uint64_t k =
+      first + first_index_where(coords, [](double c) { return !std::isfinite(c); });
   return "vertex " + std::to_string(k / 3) + " has a non-finite coordinate";
 }
 
@@ -257,7 +259,8 @@ std::string coordinates_problem(std::span<const double> coords, std::uint64_t fi
 template <class Float>
 std::uint64_t first_negative_or_non_finite(std::span<const Float> values) {
   using Bits = std::conditional_t<sizeof(Float) == 8, std::uint64_t, std::uint32_t>;
-  constexpr Bits infinity = sizeof(Float) == 8 ? Bits(kDoubleInfinityBits) : Bits(kFloatInfinityBits);
+  constexpr Bits infinity =
+      sizeof(Float) == 8 ? Bits(kDoubleInfinityBits) : Bits(kFloatInfinityBits);
   if (!any_bits_at_or_above(values, infinity)) return values.size();
   return first_index_where(values, [](Float v) { return !(std::isfinite(v) && v >= 0); });
 }
@@ -546,21 +549,29 @@ class ValueChecks {
     std::uint64_t first = 0;
     auto piece = [&]<class T>(Id id, T*) {
       const GraphFileSection& s = *found_[static_cast<std::uint32_t>(id) - 1];
-      const std::uint64_t lo = std::max(offset, s.offset), hi = std::min(offset + size, s.offset + s.size);
+      const std::uint64_t lo = std::max(offset, s.offset),
+                          hi = std::min(offset + size, s.offset + s.size);
       if (lo >= hi) return std::span<const T>();
       first = (lo - s.offset) / sizeof(T);
-      return std::span<const T>(reinterpret_cast<const T*>(bytes + (lo - offset)), (hi - lo) / sizeof(T));
+      return std::span<const T>(reinterpret_cast<const T*>(bytes + (lo - offset)),
+                                (hi - lo) / sizeof(T));
     };
     const auto* u32 = static_cast<std::uint32_t*>(nullptr);
     const auto* f64 = static_cast<double*>(nullptr);
     const auto* f32 = static_cast<float*>(nullptr);
     std::string p;
-    if (auto ids = piece(Id::Faces, u32); !ids.empty()) p = face_ids_problem(ids, first, h_.num_vertices, faces_);
-    if (auto c = piece(Id::Positions, f64); p.empty() && !c.empty()) p = coordinates_problem(c, first);
-    if (auto l = piece(Id::EdgeLengths, f64); p.empty() && !l.empty()) p = edge_lengths_problem(l, first);
-    if (auto d = piece(Id::EdgeDistance, f64); p.empty() && !d.empty()) p = edge_distances_problem(d, first);
-    if (auto j = piece(Id::CoverSample, u32); p.empty() && !j.empty()) p = cover_samples_problem(j, first, h_.num_samples);
-    if (auto d = piece(Id::CoverDistance, f32); p.empty() && !d.empty()) p = cover_distances_problem(d, first);
+    if (auto ids = piece(Id::Faces, u32); !ids.empty())
+      p = face_ids_problem(ids, first, h_.num_vertices, faces_);
+    if (auto c = piece(Id::Positions, f64); p.empty() && !c.empty())
+      p = coordinates_problem(c, first);
+    if (auto l = piece(Id::EdgeLengths, f64); p.empty() && !l.empty())
+      p = edge_lengths_problem(l, first);
+    if (auto d = piece(Id::EdgeDistance, f64); p.empty() && !d.empty())
+      p = edge_distances_problem(d, first);
+    if (auto j = piece(Id::CoverSample, u32); p.empty() && !j.empty())
+      p = cover_samples_problem(j, first, h_.num_samples);
+    if (auto d = piece(Id::CoverDistance, f32); p.empty() && !d.empty())
+      p = cover_distances_problem(d, first);
     problem_ = std::move(p);
   }
 
@@ -582,7 +593,8 @@ std::uint64_t hash_file_prefix(int fd, const std::string& path, std::uint64_t si
   auto* buffer = reinterpret_cast<unsigned char*>(words.data());
   StreamHash h(seed);
   for (std::uint64_t offset = 0; offset < size;) {
-    const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, size - offset));
+    const std::size_t want =
+        static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, size - offset));
     const ssize_t got = ::pread(fd, buffer, want, static_cast<off_t>(offset));
     if (got < 0 && errno == EINTR) continue;
     if (got <= 0) {
@@ -1001,7 +1013,8 @@ MappedGraphFile MappedGraphFile::open(const std::string& path, const OpenOptions
   file.checksum_ = load64(base + data_end);
   bool values_checked = false;
   if (options.verify_checksum) {
-    const GraphFileSection& faces = *found[static_cast<std::uint32_t>(GraphFileSectionId::Faces) - 1];
+    const GraphFileSection& faces =
+        *found[static_cast<std::uint32_t>(GraphFileSectionId::Faces) - 1];
     ValueChecks checks(found, h, section_span<Triangle>(base, faces));
     const std::uint64_t computed =
         hash_file_prefix(fd, path, data_end, kChecksumSeed,

@@ -33,13 +33,6 @@
 namespace geoprox::server::testing {
 namespace {
 
-std::string read_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 /// A child process running `argv`, its stdout and stderr to `log`. With `file_size_limit` > 0,
 /// RLIMIT_FSIZE is set to it and SIGXFSZ ignored: writes past the limit fail with EFBIG, which
 /// is what a full disk looks like to the writer, instead of killing the process.

@@ -17,13 +17,6 @@
 namespace geoprox::server::testing {
 namespace {
 
-std::string read_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 /// Replaces `path` the way graph files are replaced: a complete file renamed over it.
 void replace_file(const fs::path& path, const std::string& bytes) {
   const fs::path tmp = path.string() + ".tmp";

@@ -59,13 +59,6 @@ class Daemon {
   bool exited_ = false;
 };
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 void write_file(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out << text;
@@ -76,11 +69,11 @@ std::uint16_t wait_for_port(const fs::path& port_file, const fs::path& log) {
   const auto deadline = std::chrono::steady_clock::now() + 30s;
   while (std::chrono::steady_clock::now() < deadline) {
     if (fs::exists(port_file)) {
-      return json::parse(read_file(port_file))["port"].get<std::uint16_t>();
+      return json::parse(read_bytes(port_file))["port"].get<std::uint16_t>();
     }
     std::this_thread::sleep_for(10ms);
   }
-  ADD_FAILURE() << "geoproxd did not start:\n" << read_file(log);
+  ADD_FAILURE() << "geoproxd did not start:\n" << read_bytes(log);
   return 0;
 }
 
@@ -133,9 +126,9 @@ TEST(Daemon, SigtermDrainsRequestsInFlightAndExitsZero) {
     answered.insert(reply["id"].get<int>());
   }
   EXPECT_EQ(answered, (std::set<int>{1, 2}));
-  EXPECT_EQ(daemon.wait(30s), 0) << read_file(log);
+  EXPECT_EQ(daemon.wait(30s), 0) << read_bytes(log);
   EXPECT_THROW(Client{port}, std::runtime_error);  // no longer accepting
-  const std::string text = read_file(log);
+  const std::string text = read_bytes(log);
   EXPECT_NE(text.find("shutting down gracefully"), std::string::npos) << text;
   EXPECT_NE(text.find("geoproxd stopped"), std::string::npos) << text;
 }
@@ -193,7 +186,7 @@ TEST(Daemon, SighupReloadsAGoodGraphAndKeepsTheOldOneOnACorruptedOne) {
   EXPECT_EQ(c.result("mesh.list")["meshes"][0]["samples"], 300);
 
   // A corrupted graph (one flipped byte): the reload fails, the old graph keeps serving.
-  std::string bytes = read_file(graph);
+  std::string bytes = read_bytes(graph);
   bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5a);
   write_file(data.graph_dir() / "bad.tmp", bytes);
   fs::rename(data.graph_dir() / "bad.tmp", graph);
@@ -201,9 +194,9 @@ TEST(Daemon, SighupReloadsAGoodGraphAndKeepsTheOldOneOnACorruptedOne) {
   bool failed_logged = false;
   for (int i = 0; i < 500 && !failed_logged; ++i) {
     std::this_thread::sleep_for(10ms);
-    failed_logged = read_file(log).find("reload failed") != std::string::npos;
+    failed_logged = read_bytes(log).find("reload failed") != std::string::npos;
   }
-  EXPECT_TRUE(failed_logged) << read_file(log);
+  EXPECT_TRUE(failed_logged) << read_bytes(log);
   const json after = c.result("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}});
   EXPECT_EQ(after["mesh_version"], v2);
   daemon.signal(SIGTERM);
@@ -230,7 +223,7 @@ TEST(Daemon, ProbeReportsReadinessForContainerHealthChecks) {
   const fs::path port_file = data.dir.path() / "ports.json";
   Daemon daemon({"--config", config.string(), "--port-file", port_file.string()}, log);
   wait_for_port(port_file, log);
-  ASSERT_EQ(json::parse(read_file(port_file))["admin_port"].get<std::uint16_t>(), admin_port);
+  ASSERT_EQ(json::parse(read_bytes(port_file))["admin_port"].get<std::uint16_t>(), admin_port);
   const fs::path probe_log = data.dir.path() / "probe.log";
   int code = -1;
   const auto deadline = std::chrono::steady_clock::now() + 60s;
@@ -238,16 +231,16 @@ TEST(Daemon, ProbeReportsReadinessForContainerHealthChecks) {
     Daemon probe({"--probe", "--admin-port", std::to_string(admin_port)}, probe_log);
     code = probe.wait(10s);
     if (code == 0) break;
-    EXPECT_EQ(code, 1) << read_file(probe_log);  // not ready yet (spot's graph is building)
+    EXPECT_EQ(code, 1) << read_bytes(probe_log);  // not ready yet (spot's graph is building)
     std::this_thread::sleep_for(50ms);
   }
-  EXPECT_EQ(code, 0) << "never ready: " << read_file(log);
+  EXPECT_EQ(code, 0) << "never ready: " << read_bytes(log);
   daemon.signal(SIGTERM);
   EXPECT_EQ(daemon.wait(30s), 0);
   // Nothing listening any more: not ready.
   Daemon probe({"--probe", "--admin-port", std::to_string(admin_port)}, probe_log);
   EXPECT_EQ(probe.wait(10s), 1);
-  EXPECT_NE(read_file(probe_log).find("not ready"), std::string::npos) << read_file(probe_log);
+  EXPECT_NE(read_bytes(probe_log).find("not ready"), std::string::npos) << read_bytes(probe_log);
 }
 
 TEST(Daemon, CheckValidatesConfigMeshesAndGraphs) {
@@ -256,7 +249,7 @@ TEST(Daemon, CheckValidatesConfigMeshesAndGraphs) {
   {
     const fs::path config = write_config(data);
     Daemon check({"--config", config.string(), "--check"}, log);
-    EXPECT_EQ(check.wait(60s), 0) << read_file(log);
+    EXPECT_EQ(check.wait(60s), 0) << read_bytes(log);
   }
   {
     // A corrupted graph file fails the check.
@@ -264,14 +257,14 @@ TEST(Daemon, CheckValidatesConfigMeshesAndGraphs) {
     const fs::path config = write_config(data);
     Daemon check({"--config", config.string(), "--check"}, log);
     EXPECT_EQ(check.wait(60s), 1);
-    EXPECT_NE(read_file(log).find("graph spot"), std::string::npos) << read_file(log);
+    EXPECT_NE(read_bytes(log).find("graph spot"), std::string::npos) << read_bytes(log);
   }
   {
     // An unknown key is refused, naming it.
     const fs::path config = write_config(data, {{"prot", 1}});
     Daemon check({"--config", config.string(), "--check"}, log);
     EXPECT_EQ(check.wait(60s), 1);
-    EXPECT_NE(read_file(log).find("unknown key \"prot\""), std::string::npos) << read_file(log);
+    EXPECT_NE(read_bytes(log).find("unknown key \"prot\""), std::string::npos) << read_bytes(log);
   }
 }
 
@@ -441,7 +434,7 @@ TEST_F(AdminTest, RegisterRebuildReloadUnregister) {
 }
 
 TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {
-  const json document = json::parse(read_file(source_dir() / "configs/default.json"));
+  const json document = json::parse(read_bytes(source_dir() / "configs/default.json"));
   const Config config = parse_config(document, source_dir() / "configs");
   EXPECT_EQ(config.port, 7878);
   EXPECT_EQ(config.admin_port, 7879);

@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -42,6 +43,14 @@ using namespace std::chrono_literals;
 inline fs::path source_dir() { return fs::path(GEOPROX_SOURCE_DIR); }
 inline fs::path spot_obj() { return source_dir() / "data/meshes/spot.obj"; }
 inline fs::path dragon_off() { return source_dir() / "data/meshes/ChineseDragon-10kv.off"; }
+
+/// The whole file as bytes (empty if it cannot be read).
+inline std::string read_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
 
 class TempDir {
  public:
