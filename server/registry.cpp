@@ -83,7 +83,8 @@ LoadedMesh::Lease LoadedMesh::lease() const {
       ++created_;
       lock.unlock();
       try {
-        auto slot = std::make_unique<ScratchSlot>(ScratchSlot{query_->make_scratch(), nullptr, nullptr, nullptr});
+        auto slot = std::make_unique<ScratchSlot>(
+            ScratchSlot{query_->make_scratch(), nullptr, nullptr, nullptr});
         return Lease(this, std::move(slot));
       } catch (...) {
         std::lock_guard relock(pool_mutex_);
