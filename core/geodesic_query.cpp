@@ -453,7 +453,7 @@ double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& f
   const bool directed = euclidean_lower_bound_;
   auto potential = [&](std::uint32_t i) {
     if (!directed) return 0.0;
-    s.touch(i);
+    // Callers touch i first (seed_side, settle_and_relax), which resets the cached value.
     double& p = s.potential[i];  // two square roots, once per sample and search
     if (p == QueryScratch::Impl::kNoPotential) {
       const Vec3& x = sample_positions_[i];

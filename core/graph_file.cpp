@@ -546,31 +546,21 @@ class ValueChecks {
   void run(std::uint64_t offset, const unsigned char* bytes, std::size_t size) {
     if (!problem_.empty()) return;
     using Id = GraphFileSectionId;
+    const Chunk chunk{offset, bytes, size};
     std::uint64_t first = 0;
-    auto piece = [&]<class T>(Id id, T*) {
-      const GraphFileSection& s = *found_[static_cast<std::uint32_t>(id) - 1];
-      const std::uint64_t lo = std::max(offset, s.offset),
-                          hi = std::min(offset + size, s.offset + s.size);
-      if (lo >= hi) return std::span<const T>();
-      first = (lo - s.offset) / sizeof(T);
-      return std::span<const T>(reinterpret_cast<const T*>(bytes + (lo - offset)),
-                                (hi - lo) / sizeof(T));
-    };
-    const auto* u32 = static_cast<std::uint32_t*>(nullptr);
-    const auto* f64 = static_cast<double*>(nullptr);
-    const auto* f32 = static_cast<float*>(nullptr);
     std::string p;
-    if (auto ids = piece(Id::Faces, u32); !ids.empty())
+    if (auto ids = piece<std::uint32_t>(Id::Faces, chunk, first); !ids.empty())
       p = face_ids_problem(ids, first, h_.num_vertices, faces_);
-    if (auto c = piece(Id::Positions, f64); p.empty() && !c.empty())
+    if (auto c = piece<double>(Id::Positions, chunk, first); p.empty() && !c.empty())
       p = coordinates_problem(c, first);
-    if (auto l = piece(Id::EdgeLengths, f64); p.empty() && !l.empty())
+    if (auto l = piece<double>(Id::EdgeLengths, chunk, first); p.empty() && !l.empty())
       p = edge_lengths_problem(l, first);
-    if (auto d = piece(Id::EdgeDistance, f64); p.empty() && !d.empty())
+    if (auto d = piece<double>(Id::EdgeDistance, chunk, first); p.empty() && !d.empty())
       p = edge_distances_problem(d, first);
-    if (auto j = piece(Id::CoverSample, u32); p.empty() && !j.empty())
+    if (auto j = piece<std::uint32_t>(Id::CoverSample, chunk, first);
+        p.empty() && !j.empty())
       p = cover_samples_problem(j, first, h_.num_samples);
-    if (auto d = piece(Id::CoverDistance, f32); p.empty() && !d.empty())
+    if (auto d = piece<float>(Id::CoverDistance, chunk, first); p.empty() && !d.empty())
       p = cover_distances_problem(d, first);
     problem_ = std::move(p);
   }
@@ -578,6 +568,23 @@ class ValueChecks {
   const std::string& problem() const { return problem_; }
 
  private:
+  /// The part of section `id` inside `chunk`, as values of type T;
+  /// `first` gets the index of its first value in the section.
+  struct Chunk {  // bytes [offset, offset + size) of the file
+    std::uint64_t offset;
+    const unsigned char* bytes;
+    std::size_t size;
+  };
+  template <class T>
+  std::span<const T> piece(GraphFileSectionId id, const Chunk& chunk, std::uint64_t& first) const {
+    const GraphFileSection& s = *found_[static_cast<std::uint32_t>(id) - 1];
+    const std::uint64_t lo = std::max(chunk.offset, s.offset),
+                        hi = std::min(chunk.offset + chunk.size, s.offset + s.size);
+    if (lo >= hi) return {};
+    first = (lo - s.offset) / sizeof(T);
+    return {reinterpret_cast<const T*>(chunk.bytes + (lo - chunk.offset)), (hi - lo) / sizeof(T)};
+  }
+
   const GraphFileSection* const* found_;
   const GraphFileHeader& h_;
   std::span<const Triangle> faces_;  // the mapping's, for messages only
