@@ -207,6 +207,12 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
       stopped = true;
       break;
     }
+    if (options.max_queue_pops != 0 && stats_.queue_pops >= options.max_queue_pops &&
+        top.key >= options.min_distance) {
+      radius_reached_ = top.key;  // every later entry starts at least this far out
+      stopped = true;
+      break;
+    }
     pop();
     if (options.interrupt && (stats_.queue_pops & 1023) == 0) options.interrupt->check();
     if (top.item & kVertexItem) {

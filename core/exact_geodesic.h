@@ -77,9 +77,14 @@ struct ExactGeodesicOptions {
   /// With targets: stop as soon as this many targets are settled (0: all of them). The
   /// settled ones are then exactly the nearest ones.
   std::size_t stop_after_targets = 0;
-  /// With stop_after_targets: do not stop before every point within this distance is final,
-  /// even when enough targets are settled (all targets within it are then settled too).
+  /// With stop_after_targets or max_queue_pops: do not stop before every point within this
+  /// distance is final, even when enough targets are settled (all targets within it are then
+  /// settled too) or the budget is spent.
   double min_distance = 0;
+  /// Stop after this many queue pops (0: no limit), once past min_distance: a budget of work
+  /// rather than a radius. radius_reached() is then the smallest key left, and every point
+  /// closer is final.
+  std::size_t max_queue_pops = 0;
   /// Polled every 1024 queue pops; the solve throws Interrupted when it fires. Not owned.
   const QueryInterrupt* interrupt = nullptr;
 };

@@ -46,8 +46,23 @@ struct QueryLinks {
   /// (links through covers), or {kDirect, 0} for a link straight from a solve or a cover row.
   std::vector<std::pair<std::uint32_t, double>> via;
   double longest = 0;
-  /// The exact distances of the local solve to every vertex it settled (fields only).
+  /// The exact distances of the local solve to every vertex it settled (fields, near pairs).
   std::vector<std::pair<std::uint32_t, double>> region;
+};
+
+/// A point-to-point answer and where it came from (paths are rebuilt from it).
+struct PairAnswer {
+  enum class From : std::uint8_t {
+    Graph,   ///< a search over the augmented graph; halves meet at sample `meet`
+    SolveS,  ///< exact, from solver_s's solve from s
+    SolveT,  ///< exact, from solver_t's solve from t
+    Join,    ///< near pair: through `join_point`, in both solvers' disks
+  };
+  double distance = kInfinity;
+  From from = From::Graph;
+  std::uint32_t meet = UINT32_MAX;
+  SurfacePoint join_point;
+  std::uint32_t settled = 0;
 };
 
 struct QueryScratch::Impl {
@@ -66,7 +81,9 @@ struct QueryScratch::Impl {
         potential(num_samples),
         origin(num_samples),
         link_stamp(num_samples, 0),
-        link_slot(num_samples, 0) {}
+        link_slot(num_samples, 0),
+        join_stamp(mesh.num_vertices(), 0),
+        join_distance(mesh.num_vertices()) {}
 
   // Lazily resets sample i's labels for this search.
   void touch(std::uint32_t i) {
@@ -118,6 +135,15 @@ struct QueryScratch::Impl {
   std::uint32_t link_generation = 0;
   std::vector<std::uint32_t> link_stamp;
   std::vector<std::uint32_t> link_slot;
+  /// Joining two near points' disks: one side's distance at vertex v, valid when
+  /// join_stamp[v] == join_generation.
+  std::uint32_t join_generation = 0;
+  std::vector<std::uint32_t> join_stamp;
+  std::vector<double> join_distance;
+  QueryLinks wide_s, wide_t;     ///< near pairs: wide links (see wide_links)
+  std::vector<QueryLinks> wide;  ///< matrices: wide links of each target of a near pair
+  std::vector<char> has_wide;    ///< parallel to `wide`: computed for this matrix
+  std::vector<std::uint32_t> join_edges;  ///< join_disks: the edges it searches
 
   void poll() {
     if (interrupt && (++pops & 255) == 0) interrupt->check();
@@ -153,6 +179,23 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
     sample_points_.push_back(SurfacePoint::vertex(graph.sample_vertex[i]));
   }
   bbox_diagonal_ = bounding_box_diagonal(mesh);
+  mean_edge_length_ = geometry.mean_edge_length();
+  // The work of a near disk (see solve_near): the median of a solve out to near_radius rho
+  // from 15 samples taken at even steps of their order (not the first ones: farthest-point
+  // sampling starts at the extremities).
+  if (options_.near_radius > 0 && options_.refine_within > 0) {
+    ExactGeodesicSolver solver(mesh, geometry);
+    ExactGeodesicOptions bounded;
+    bounded.max_distance = options_.near_radius * link_radius_;
+    std::vector<std::size_t> pops;
+    const std::uint32_t n = graph.num_samples, probes = std::min<std::uint32_t>(n, 15);
+    for (std::uint32_t k = 0; k < probes; ++k) {
+      solver.solve(sample_points_[(2 * k + 1) * n / (2 * probes)], bounded);
+      pops.push_back(solver.stats().queue_pops);
+    }
+    std::nth_element(pops.begin(), pops.begin() + pops.size() / 2, pops.end());
+    near_pops_ = std::max<std::size_t>(pops[pops.size() / 2], 1);
+  }
   sample_positions_.reserve(graph.num_samples);
   for (std::uint32_t i = 0; i < graph.num_samples; ++i) {
     sample_positions_.push_back(mesh.position(graph.sample_vertex[i]));
@@ -234,7 +277,8 @@ double GeodesicQuery::link_solve_radius(const SurfacePoint& p) const {
 }
 
 bool GeodesicQuery::link_through_covers(const ExactGeodesicSolver& solver, double radius,
-                                        QueryScratch::Impl& s, Links& out) const {
+                                        QueryScratch::Impl& s, Links& out,
+                                        const Links* base) const {
   if (graph_.cover_sample.empty()) return false;
   out.samples.clear();
   out.via.clear();
@@ -242,6 +286,14 @@ bool GeodesicQuery::link_through_covers(const ExactGeodesicSolver& solver, doubl
   if (++s.link_generation == 0) {
     std::fill(s.link_stamp.begin(), s.link_stamp.end(), 0);
     s.link_generation = 1;
+  }
+  if (base != nullptr) {  // start from these links, improve them
+    out.samples = base->samples;
+    out.via = base->via;
+    for (std::uint32_t k = 0; k < out.samples.size(); ++k) {
+      s.link_stamp[out.samples[k].first] = s.link_generation;
+      s.link_slot[out.samples[k].first] = k;
+    }
   }
   // Each settled vertex v offers d(p, v) + d(v, sample) for the samples in its cover row; the
   // best over v is within a fraction of an edge of d(p, sample) (the geodesic passes near some
@@ -570,23 +622,191 @@ double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
   return kInfinity;
 }
 
+// A near pair's disk around p: out to near_radius rho, and farther while it takes less work
+// than such a disk takes on average (near_pops_), up to three times that radius. Among large
+// triangles (a statue's flat base) a disk of the usual radius holds a handful of vertices, too
+// few to link or join through; there the same work reaches much farther, and p's face being
+// large (its edges longer than the mean) buys it up to three times that work, as such regions
+// border on denser ones.
+void GeodesicQuery::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
+                               const QueryInterrupt* interrupt) const {
+  const double scale = sparseness(p, 2);
+  ExactGeodesicOptions bounded;
+  bounded.min_distance = options_.near_radius * link_radius_;
+  bounded.max_distance = 3 * bounded.min_distance;
+  bounded.max_queue_pops = static_cast<std::size_t>(scale * static_cast<double>(near_pops_));
+  bounded.interrupt = interrupt;
+  solver.solve(p, bounded);
+}
+
+// p's links (`narrow`, as link_pair() made them), improved through every vertex of its near
+// disk (solver holds that solve, solve_near()); keeps the disk's distances for joining with the
+// other point's disk.
+void GeodesicQuery::wide_links(const ExactGeodesicSolver& solver, QueryScratch::Impl& s,
+                               const Links& narrow, Links& out) const {
+  const double radius = solver.radius_reached();
+  if (!link_through_covers(solver, radius, s, out, &narrow)) {  // no cover table
+    out.samples = narrow.samples;
+    out.via = narrow.via;
+  }
+  out.longest = 0;
+  for (const auto& [i, d] : out.samples) out.longest = std::max(out.longest, d);
+  out.region.clear();
+  for (std::uint32_t v : solver.touched_vertices()) {
+    const double d = solver.distance(v);
+    if (d <= radius) out.region.emplace_back(v, d);
+  }
+}
+
+// The shortest path through a point of both disks (solver a holds one, solver b the other;
+// `a_disk` / `b_disk` their regions). First through a vertex: min over v of d_a(v) + d_b(v).
+// Then along the edges of the faces around the best two vertices, where the geodesic crosses
+// (among large triangles the best vertex can be far off it): d_a + d_b along an edge is smooth
+// and has one minimum near the crossing, found by golden-section search. An upper bound of the
+// distance (a real path through that point) and symmetric in a, b: the same sums throughout.
+double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolver& a,
+                                 const Links& a_disk, const ExactGeodesicSolver& b,
+                                 const Links& b_disk, SurfacePoint& at) const {
+  if (++s.join_generation == 0) {
+    std::fill(s.join_stamp.begin(), s.join_stamp.end(), 0);
+    s.join_generation = 1;
+  }
+  for (const auto& [v, d] : a_disk.region) {
+    s.join_stamp[v] = s.join_generation;
+    s.join_distance[v] = d;
+  }
+  double best = kInfinity, second = kInfinity;
+  std::uint32_t best_vertex = UINT32_MAX, second_vertex = UINT32_MAX;
+  for (const auto& [v, d] : b_disk.region) {
+    if (s.join_stamp[v] != s.join_generation) continue;
+    const double total = s.join_distance[v] + d;
+    if (total < best) {
+      second = best;
+      second_vertex = best_vertex;
+      best = total;
+      best_vertex = v;
+    } else if (total < second) {
+      second = total;
+      second_vertex = v;
+    }
+  }
+  if (best_vertex == UINT32_MAX) return kInfinity;
+  at = SurfacePoint::vertex(best_vertex);
+  std::vector<std::uint32_t>& edges = s.join_edges;
+  edges.clear();
+  for (const std::uint32_t v : {best_vertex, second_vertex}) {
+    if (v == UINT32_MAX) continue;
+    for (const std::uint32_t h : mesh_->outgoing_halfedges(v)) {
+      const std::uint32_t f = TriangleMesh::face_of(h);
+      for (std::uint32_t i = 0; i < 3; ++i) {
+        const std::uint32_t e = mesh_->edge_of(3 * f + i);
+        if (std::find(edges.begin(), edges.end(), e) == edges.end()) edges.push_back(e);
+      }
+    }
+  }
+  for (const std::uint32_t e : edges) {
+    auto sum = [&](double t) {
+      const SurfacePoint x = SurfacePoint::edge(e, t);
+      const double total = a.distance(x) + b.distance(x);
+      if (total < best) {
+        best = total;
+        at = x;
+      }
+      return total;
+    };
+    constexpr double kGolden = 0.38196601125010515;  // (3 - sqrt 5) / 2
+    double lo = 0, hi = 1;
+    double x1 = kGolden, x2 = 1 - kGolden;
+    double f1 = sum(x1), f2 = sum(x2);
+    if (f1 == kInfinity && f2 == kInfinity) continue;
+    for (int k = 0; k < 28; ++k) {  // the bracket shrinks to 1.4e-6 of the edge
+      if (f1 <= f2) {
+        hi = x2;
+        x2 = x1;
+        f2 = f1;
+        x1 = lo + kGolden * (hi - lo);
+        f1 = sum(x1);
+      } else {
+        lo = x1;
+        x1 = x2;
+        f1 = f2;
+        x2 = hi - kGolden * (hi - lo);
+        f2 = sum(x2);
+      }
+    }
+  }
+  return best;
+}
+
+// A near pair (see the file comment): the better of the join of both disks and a search from
+// their wide links (links_s / links_t hold the pair's links from link_pair()). Leaves solver_s /
+// solver_t holding the solves from s / t and links_s / links_t the wide links, for paths.
+PairAnswer GeodesicQuery::answer_near(const SurfacePoint& s, const SurfacePoint& t,
+                                      QueryScratch::Impl& w) const {
+  solve_near(s, w.solver_s, w.interrupt);  // afresh, as for t: the same disk either way
+  solve_near(t, w.solver_t, w.interrupt);
+  PairAnswer a;
+  wide_links(w.solver_s, w, w.links_s, w.wide_s);
+  wide_links(w.solver_t, w, w.links_t, w.wide_t);
+  std::swap(w.links_s, w.wide_s);  // paths read links_s / links_t
+  std::swap(w.links_t, w.wide_t);
+  a.distance = join_disks(w, w.solver_s, w.links_s, w.solver_t, w.links_t, a.join_point);
+  a.from = PairAnswer::From::Join;
+  w.source_position = s.position(*mesh_);
+  w.target_position = t.position(*mesh_);
+  a.distance = search(w, w.links_s, w.links_t, a.distance, a.meet, a.settled);
+  if (a.meet != UINT32_MAX) a.from = PairAnswer::From::Graph;
+  return a;
+}
+
+// 1, or for a point among large triangles (its face's edges more than `knee` times the mesh's
+// mean), that ratio over `knee`, at most 3. Random points fall on larger-than-mean faces more
+// often than not (by area), and on an ordinary mesh those are no sparser than the rest: only
+// outliers count.
+double GeodesicQuery::sparseness(const SurfacePoint& p, double knee) const {
+  const std::uint32_t face = p.in_face(*mesh_).first;
+  double edges = 0;
+  for (std::uint32_t i = 0; i < 3; ++i) edges += geometry_->layout(3 * face + i).length;
+  return std::clamp(edges / (3 * knee * mean_edge_length_), 1.0, 3.0);
+}
+
+// Near pairs: the graph's answer (an upper bound of the distance, and symmetric) under
+// refine_within rho, or farther for a point among large triangles, whose graph paths bend more.
+bool GeodesicQuery::refines(const SurfacePoint& s, const SurfacePoint& t,
+                            double graph_distance) const {
+  return options_.refine_within > 0 && options_.near_radius > 0 &&
+         graph_distance <= options_.refine_within * link_radius_ *
+                               std::max(sparseness(s, 4), sparseness(t, 4));
+}
+
+PairAnswer GeodesicQuery::answer(const SurfacePoint& s, const SurfacePoint& t,
+                                 QueryScratch::Impl& w) const {
+  PairAnswer a;
+  bool solved_s = false, solved_t = false;
+  a.distance = link_pair(s, t, w, solved_s, solved_t);
+  if (a.distance < kInfinity) {
+    a.from = solved_t ? PairAnswer::From::SolveT : PairAnswer::From::SolveS;
+    return a;
+  }
+  w.source_position = s.position(*mesh_);
+  w.target_position = t.position(*mesh_);
+  a.distance = search(w, w.links_s, w.links_t, kInfinity, a.meet, a.settled);
+  // Decided by the graph's answer, an upper bound of the distance (and symmetric).
+  if (refines(s, t, a.distance)) return answer_near(s, t, w);
+  return a;
+}
+
 DistanceResult GeodesicQuery::distance(const SurfacePoint& s, const SurfacePoint& t,
                                        QueryScratch& scratch) const {
   s.validate(*mesh_);
   t.validate(*mesh_);
-  QueryScratch::Impl& w = *scratch.impl_;
+  const PairAnswer a = answer(s, t, *scratch.impl_);
+  if (a.distance == kInfinity) throw unreachable(s, t);
   DistanceResult result;
-  bool solved_s = false, solved_t = false;
-  result.distance = link_pair(s, t, w, solved_s, solved_t);
-  if (result.distance < kInfinity) {
-    result.exact = true;
-    return result;
-  }
-  std::uint32_t meet = 0;
-  w.source_position = s.position(*mesh_);
-  w.target_position = t.position(*mesh_);
-  result.distance = search(w, w.links_s, w.links_t, kInfinity, meet, result.samples_settled);
-  if (result.distance == kInfinity) throw unreachable(s, t);
+  result.distance = a.distance;
+  result.exact = a.from == PairAnswer::From::SolveS || a.from == PairAnswer::From::SolveT;
+  result.joined = a.from == PairAnswer::From::Join;
+  result.samples_settled = a.settled;
   return result;
 }
 
@@ -674,28 +894,37 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
       // if both traces meet at that vertex with the right total length, join them.
       std::uint32_t reverse = graph_.edge_offsets[b];
       while (reverse < graph_.edge_offsets[b + 1] && graph_.edge_target[reverse] != a) ++reverse;
-      if (reverse < graph_.edge_offsets[b + 1] && trace(b, reverse, s.trace_back) &&
-          s.trace_back.stop == TraceStop::HitVertex &&
-          s.trace_back.stop_vertex == s.trace.stop_vertex &&
+      const bool back = reverse < graph_.edge_offsets[b + 1] && trace(b, reverse, s.trace_back) &&
+                        s.trace_back.stop == TraceStop::HitVertex;
+      if (back && s.trace_back.stop_vertex == s.trace.stop_vertex &&
           std::abs(s.trace.length + s.trace_back.length - length) <= tolerance) {
         piece.assign(s.trace.points.begin(), s.trace.points.end());
         piece.insert(piece.end(), s.trace_back.points.rbegin() + 1, s.trace_back.points.rend());
         piece.back() = {SurfacePoint::vertex(b_vertex), mesh_->position(b_vertex)};
         done = true;
       } else {
-        // Several bends: the traced part up to the first one, then an exact solve for the
-        // rest, bounded by the remaining length (the geodesic passes through that vertex).
+        // Several bends: the traced parts up to the first bend from each end, and between
+        // those two vertices an exact solve bounded by the remaining length (the geodesic
+        // passes through both). Without a trace back, the solve runs from the first bend to b.
+        const bool both = back && s.trace.length + s.trace_back.length < length;
         const auto bend = static_cast<std::uint32_t>(s.trace.stop_vertex);
-        const double rest = length - s.trace.length;
+        const std::uint32_t end =
+            both ? static_cast<std::uint32_t>(s.trace_back.stop_vertex) : b_vertex;
+        const double rest = length - s.trace.length - (both ? s.trace_back.length : 0.0);
         ExactGeodesicOptions bounded;
         bounded.max_distance = rest * (1 + 1e-9) + tolerance;
         bounded.interrupt = s.interrupt;
         s.solver_s.solve(SurfacePoint::vertex(bend), bounded);
-        const double found = s.solver_s.distance(b_vertex);
+        const double found = s.solver_s.distance(end);
         if (found < kInfinity && std::abs(found - rest) <= tolerance) {
           piece.assign(s.trace.points.begin(), s.trace.points.end());
-          const GeodesicPath tail = s.solver_s.path_to(SurfacePoint::vertex(b_vertex));
-          piece.insert(piece.end(), tail.points.begin() + 1, tail.points.end());
+          const GeodesicPath middle = s.solver_s.path_to(SurfacePoint::vertex(end));
+          piece.insert(piece.end(), middle.points.begin() + 1, middle.points.end());
+          if (both) {
+            piece.insert(piece.end(), s.trace_back.points.rbegin() + 1,
+                         s.trace_back.points.rend());
+            piece.back() = {SurfacePoint::vertex(b_vertex), mesh_->position(b_vertex)};
+          }
           done = true;
           ++out.exact_segments;
         }
@@ -724,8 +953,12 @@ std::vector<PathPoint> GeodesicQuery::link_piece(const SurfacePoint& p, const Li
   const SurfacePoint& target = sample_points_[sample];
   const auto [vertex, to_vertex] = links.via[k];
   if (vertex == kDirect) return exact_piece(p, target, links.samples[k].second, solver, s.interrupt);
+  // `solver` still holds the solve from p that the link came from: the piece to the vertex is
+  // its backtrace (checked, in case it has been reused since).
   std::vector<PathPoint> piece =
-      exact_piece(p, SurfacePoint::vertex(vertex), to_vertex, solver, s.interrupt);
+      solver.distance(vertex) == to_vertex
+          ? solver.path_to(SurfacePoint::vertex(vertex)).points
+          : exact_piece(p, SurfacePoint::vertex(vertex), to_vertex, solver, s.interrupt);
   const std::vector<PathPoint> rest =
       exact_piece(SurfacePoint::vertex(vertex), target, links.samples[k].second - to_vertex,
                   solver, s.interrupt);
@@ -739,27 +972,34 @@ PathResult GeodesicQuery::path(const SurfacePoint& s, const SurfacePoint& t,
   t.validate(*mesh_);
   QueryScratch::Impl& w = *scratch.impl_;
   PathResult result;
-  bool solved_s = false, solved_t = false;
-  result.distance = link_pair(s, t, w, solved_s, solved_t);
-  if (result.distance < kInfinity) {  // exact: from a solve from s, or from t
-    result.exact = true;
-    if (solved_t) {
+  const PairAnswer a = answer(s, t, w);
+  if (a.distance == kInfinity) throw unreachable(s, t);
+  result.distance = a.distance;
+  switch (a.from) {
+    case PairAnswer::From::SolveS:
+      result.exact = true;
+      result.points = w.solver_s.path_to(t).points;
+      return result;
+    case PairAnswer::From::SolveT:
+      result.exact = true;
       result.points = w.solver_t.path_to(s).points;
       std::reverse(result.points.begin(), result.points.end());
-    } else {
-      GEOPROX_ASSERT(solved_s, "an exact answer without a solve");
-      result.points = w.solver_s.path_to(t).points;
+      return result;
+    case PairAnswer::From::Join: {
+      result.joined = true;
+      result.points = w.solver_s.path_to(a.join_point).points;
+      std::vector<PathPoint> tail = w.solver_t.path_to(a.join_point).points;
+      std::reverse(tail.begin(), tail.end());
+      append_points(result.points, tail);
+      return result;
     }
-    return result;
+    case PairAnswer::From::Graph:
+      break;
   }
-  std::uint32_t meet = UINT32_MAX;
-  std::uint32_t settled = 0;
-  w.source_position = s.position(*mesh_);
-  w.target_position = t.position(*mesh_);
-  result.distance = search(w, w.links_s, w.links_t, kInfinity, meet, settled);
-  if (result.distance == kInfinity || meet == UINT32_MAX) throw unreachable(s, t);
-  // Sample sequence: s-side parents back from the meeting sample, then t-side parents.
+  const std::uint32_t meet = a.meet;
+  GEOPROX_ASSERT(meet != UINT32_MAX, "a graph answer without a meeting sample");
   std::vector<std::uint32_t> edges;  // graph edge of each hop (parallel to samples[1..])
+  // Sample sequence: s-side parents back from the meeting sample, then t-side parents.
   for (std::int32_t i = static_cast<std::int32_t>(meet); i != kFromQueryPoint;
        i = w.parent[0][static_cast<std::uint32_t>(i)]) {
     result.samples.push_back(static_cast<std::uint32_t>(i));
@@ -901,23 +1141,31 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   std::vector<double> out(S * T, kInfinity);
   if (S == 0 || T == 0) return out;
   if (w.many.size() < S + T) w.many.resize(S + T);
+  // Pairs that distance() answers from the exact solves of link_pair (then not refined).
+  std::vector<char> exact(S * T, 0);
+  auto take_exact = [&](std::size_t k, double d) {
+    if (d < kInfinity) exact[k] = 1;
+    out[k] = std::min(out[k], d);
+  };
   // Links as for point-to-point queries. Sources are always solved out to the link radius, so
   // that every pair closer than it gets its exact distance, as distance() does.
   for (std::size_t j = 0; j < T; ++j) {
     if (!link_by_covers(targets[j], w.many[S + j])) {
       link_by_solve(targets[j], w.solver_t, w, w.many[S + j]);
       for (std::size_t i = 0; i < S; ++i) {  // as in distance(): exact when reached
-        out[i * T + j] = std::min(out[i * T + j], w.solver_t.distance(sources[i]));
+        take_exact(i * T + j, w.solver_t.distance(sources[i]));
       }
     }
   }
+  if (w.wide.size() < T) w.wide.resize(T);
+  w.has_wide.assign(T, 0);
+  std::vector<std::size_t> near;  // targets of source i that distance() refines
+  std::size_t solver_t_holds = SIZE_MAX;  // the target whose near disk solver_t holds
   for (std::size_t i = 0; i < S; ++i) {
     Links& l = w.many[i];
     solve_within_link_radius(sources[i], w.solver_s, w.interrupt);
     if (!link_by_covers(sources[i], l)) link_by_solve(sources[i], w.solver_s, w, l, true);
-    for (std::size_t j = 0; j < T; ++j) {
-      out[i * T + j] = std::min(out[i * T + j], w.solver_s.distance(targets[j]));
-    }
+    for (std::size_t j = 0; j < T; ++j) take_exact(i * T + j, w.solver_s.distance(targets[j]));
     const Links* one[] = {&l};
     // The search only needs to run until every target's links are settled; the largest
     // current estimate bounds how far that can be.
@@ -928,10 +1176,33 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
       farthest = std::max(farthest, out[i * T + j]);
     }
     graph_distances_from(w, one, unbounded ? kInfinity : farthest);
+    near.clear();
     for (std::size_t j = 0; j < T; ++j) {
       double best = out[i * T + j];
       for (const auto& [sample, d] : w.many[S + j].samples) best = std::min(best, w.get(0, sample) + d);
       out[i * T + j] = best;
+      if (!exact[i * T + j] && refines(sources[i], targets[j], best)) near.push_back(j);
+    }
+    if (near.empty()) continue;
+    // Near pairs, as answer_near() does them: the source's near disk and wide links, and each
+    // target's, solved once per matrix.
+    solve_near(sources[i], w.solver_s, w.interrupt);
+    wide_links(w.solver_s, w, l, w.wide_s);
+    for (std::size_t j : near) {
+      if (solver_t_holds != j) {  // the join reads the target's solve too
+        solve_near(targets[j], w.solver_t, w.interrupt);
+        solver_t_holds = j;
+      }
+      if (!w.has_wide[j]) {
+        wide_links(w.solver_t, w, w.many[S + j], w.wide[j]);
+        w.has_wide[j] = 1;
+      }
+      std::uint32_t meet = 0, settled = 0;
+      SurfacePoint at;
+      const double joined = join_disks(w, w.solver_s, w.wide_s, w.solver_t, w.wide[j], at);
+      w.source_position = sources[i].position(*mesh_);
+      w.target_position = targets[j].position(*mesh_);
+      out[i * T + j] = search(w, w.wide_s, w.wide[j], joined, meet, settled);
     }
   }
   return out;

@@ -9,12 +9,20 @@
 // samples within rho (every sample's build-time solve reached rho). A point inside a face or on
 // an edge is linked through the vertices around it: a small exact solve (three edges) settles
 // them, and each offers its cover row; a link is the best path through one such vertex (see
-// Options::link_solve_edges). Pairs closer than rho are answered exactly from a solve out to
-// rho from s, run only when the straight line between them is shorter than rho: close pairs,
-// where the paper's worst errors are, come out exact. Because the radius is the same for
-// everyone, "t within rho of s" is symmetric, answers are symmetric, and a distance field (covers
-// of each vertex) equals point-to-point queries to its vertices. Every graph edge, cover entry and
-// link is the length of a real path, so graph answers are upper bounds of the true distance.
+// Options::link_solve_edges). Every graph edge, cover entry and link is the length of a real
+// path, so graph answers are upper bounds of the true distance.
+//
+// Near pairs, where the paper's worst errors are (a graph path of few hops bends sharply at the
+// samples it passes), get more work (Options::refine_within): both points are solved exactly
+// out to near_radius (0.7 rho; farther among large triangles, for the same work). Pairs closer
+// than rho come out exact, as before. When the two disks overlap (pairs up to about 1.4 rho),
+// the pair meets at the best point of both on an edge near the best common vertex (exact
+// distances on both sides: the exact distance where the geodesic crosses that edge). All near
+// pairs link through every vertex of their disks, so that their links reach 1.7 rho and the
+// graph path bends at one or two samples instead of several. The rule depends on each point
+// alone and on the graph's answer, which is symmetric: answers are symmetric. A distance field
+// (covers of each vertex) equals point-to-point queries to its vertices beyond the refined
+// range; inside it, point-to-point answers are as good or better.
 //
 // Thread safety: a GeodesicQuery is immutable after construction and may be shared by any
 // number of threads; each thread passes its own QueryScratch, which holds every buffer a query
@@ -38,6 +46,7 @@
 namespace geoprox {
 
 struct QueryLinks;  // geodesic_query.cpp: one query point's links
+struct PairAnswer;  // geodesic_query.cpp: a point-to-point answer and where it came from
 
 /// How the augmented graph is searched between s and t (all three give the same distance).
 enum class GraphSearch : std::uint8_t {
@@ -72,6 +81,17 @@ struct GeodesicQueryOptions {
   /// value reaching rho): links come from a solve out to rho, to the samples within rho,
   /// exactly, as in the paper.
   double link_solve_edges = 3;
+  /// Pairs whose graph answer is shorter than this many link radii are refined as the file
+  /// comment says (near pairs); up to 3 times farther when a point's face has edges more than
+  /// 4 times the mesh's mean (by a quarter of that ratio). 0 turns refinement off: then every
+  /// answer is the paper's, and fields equal point-to-point queries everywhere.
+  double refine_within = 4;
+  /// The radius of a near pair's two exact solves, in link radii (rho): each solve runs at
+  /// least that far, then on while it has done less work than such a disk takes on average
+  /// (times half the ratio of its face's edges to the mean when that exceeds 2, at most 3), up
+  /// to 3 times that radius.
+  /// 0.7 takes about half the work of a solve out to rho.
+  double near_radius = 0.7;
 };
 
 /// Per-thread buffers for queries on one GeodesicQuery (see the file comment). Movable, not
@@ -98,6 +118,9 @@ struct DistanceResult {
   double distance = kInfinity;
   /// True when the answer came from an exact solve (s and t within one local region).
   bool exact = false;
+  /// True when a near pair met at a point of both points' exact disks (see the file comment):
+  /// no sample on the way.
+  bool joined = false;
   /// Samples whose graph label became final during the search (0 for exact answers).
   std::uint32_t samples_settled = 0;
 };
@@ -105,6 +128,7 @@ struct DistanceResult {
 struct PathResult {
   double distance = kInfinity;
   bool exact = false;
+  bool joined = false;  ///< as DistanceResult::joined (then `samples` is empty)
   /// From s to t: s, every edge crossing, the samples passed through, t. Starts exactly at s
   /// and ends exactly at t; its length equals `distance` (see trace_tolerance).
   std::vector<PathPoint> points;
@@ -183,12 +207,24 @@ class GeodesicQuery {
   using Links = QueryLinks;
   double link_pair(const SurfacePoint& s, const SurfacePoint& t, QueryScratch::Impl& w,
                    bool& solved_s, bool& solved_t) const;
+  PairAnswer answer(const SurfacePoint& s, const SurfacePoint& t, QueryScratch::Impl& w) const;
+  PairAnswer answer_near(const SurfacePoint& s, const SurfacePoint& t,
+                         QueryScratch::Impl& w) const;
+  bool refines(const SurfacePoint& s, const SurfacePoint& t, double graph_distance) const;
+  double sparseness(const SurfacePoint& p, double knee) const;
+  void solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
+                  const QueryInterrupt* interrupt) const;
+  void wide_links(const ExactGeodesicSolver& solver, QueryScratch::Impl& s, const Links& narrow,
+                  Links& out) const;
+  double join_disks(QueryScratch::Impl& s, const ExactGeodesicSolver& a, const Links& a_disk,
+                    const ExactGeodesicSolver& b, const Links& b_disk, SurfacePoint& at) const;
   bool link_by_covers(const SurfacePoint& p, Links& out) const;
   void link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
                      Links& out, bool solved_to_link_radius = false) const;
   double link_solve_radius(const SurfacePoint& p) const;
   bool link_through_covers(const ExactGeodesicSolver& solver, double radius,
-                           QueryScratch::Impl& s, Links& out) const;
+                           QueryScratch::Impl& s, Links& out,
+                           const Links* base = nullptr) const;
   bool may_be_within_link_radius(const SurfacePoint& s, const SurfacePoint& t) const;
   std::vector<PathPoint> link_piece(const SurfacePoint& p, const Links& links,
                                     std::uint32_t sample, QueryScratch::Impl& s,
@@ -222,6 +258,8 @@ class GeodesicQuery {
   std::vector<Vec3> sample_positions_;
   bool euclidean_lower_bound_ = false;  ///< edge lengths are the positions' (see search)
   double bbox_diagonal_ = 0;
+  std::size_t near_pops_ = 0;  ///< work budget of a near pair's disk (see solve_near)
+  double mean_edge_length_ = 0;  ///< of the intrinsic edges (see sparseness)
   mutable std::once_flag snap_index_once_;
   mutable std::unique_ptr<ClosestPointIndex> snap_index_;
 };

@@ -1458,6 +1458,50 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
   EXPECT_TRUE(tally.result());
 }
 
+TEST_P(ExactGeodesicRealMesh, WorkBudgetStopsPastMinDistanceWithFinalDistances) {
+  // max_queue_pops: the solve stops once the budget is spent and min_distance is reached;
+  // every vertex within radius_reached() has its full-solve distance, none beyond has one.
+  ExactGeodesicSolver full(mesh(), geometry()), budgeted(mesh(), geometry());
+  Rng rng(211);
+  Tally tally(std::string(GetParam().name) + " work budget", scale());
+  for (int k = 0; k < count(3, 2); ++k) {
+    const SurfacePoint s = random_face_point(mesh(), rng);
+    full.solve(s);
+    const std::vector<double> d = full.vertex_distances();
+    const std::size_t all_pops = full.stats().queue_pops;
+    double farthest = 0;
+    for (double x : d) {
+      if (std::isfinite(x)) farthest = std::max(farthest, x);
+    }
+    for (const double min_fraction : {0.0, 0.2}) {
+      ExactGeodesicSolver::Options opt;
+      opt.max_queue_pops = all_pops / 10;
+      opt.min_distance = min_fraction * farthest;
+      budgeted.solve(one(s), {}, opt);
+      const double r = budgeted.radius_reached();
+      const std::string ctx = "from " + s.to_string() + ", budget " +
+                              std::to_string(opt.max_queue_pops) + ", min " +
+                              fmt(opt.min_distance) + ", reached " + fmt(r);
+      if (!(r >= opt.min_distance) || !(r < farthest)) tally.fail(ctx + ": radius out of range");
+      if (min_fraction == 0 && budgeted.stats().queue_pops != opt.max_queue_pops) {
+        tally.fail(ctx + ": " + std::to_string(budgeted.stats().queue_pops) + " pops");
+      }
+      std::size_t inside = 0;
+      for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
+        const double got = budgeted.distance(v);
+        if (d[v] < r) {
+          ++inside;
+          tally.check(got, d[v], ctx + ": vertex " + std::to_string(v) + " inside");
+        } else if (d[v] > r && got != kInfinity) {
+          tally.fail(ctx + ": vertex " + std::to_string(v) + " beyond reported as " + fmt(got));
+        }
+      }
+      EXPECT_GT(inside, 0u) << ctx;
+    }
+  }
+  EXPECT_TRUE(tally.result());
+}
+
 TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
   ExactGeodesicSolver full(mesh(), geometry()), local(mesh(), geometry());
   Rng rng(113);
