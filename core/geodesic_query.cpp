@@ -262,18 +262,24 @@ bool GeodesicQuery::link_by_covers(const SurfacePoint& p, Links& out) const {
   return true;
 }
 
+double GeodesicQuery::mean_face_edge(std::uint32_t face) const {
+  double edges = 0;
+  for (std::uint32_t i = 0; i < 3; ++i) edges += geometry_->layout(3 * face + i).length;
+  return edges / 3;
+}
+
 double GeodesicQuery::link_solve_radius(const SurfacePoint& p) const {
   if (!(options_.link_solve_edges > 0)) return link_radius_;
   const auto [face, bary] = p.in_face(*mesh_);
   const Vec2 q = geometry_->face_point(face, bary.data());
-  double edges = 0, corners = 0;
+  double corners = 0;
   for (int i = 0; i < 3; ++i) {
-    edges += geometry_->layout(3 * face + static_cast<std::uint32_t>(i)).length;
     const Vec2 c = geometry_->face_corner(face, i);
     // At least out to the corners, so that some vertex is settled.
     corners = std::max(corners, std::hypot(q.x - c.x, q.y - c.y) * (1 + 1e-9));
   }
-  return std::min(std::max(options_.link_solve_edges * edges / 3, corners), link_radius_);
+  return std::min(std::max(options_.link_solve_edges * mean_face_edge(face), corners),
+                  link_radius_);
 }
 
 bool GeodesicQuery::link_through_covers(const ExactGeodesicSolver& solver, double radius,
@@ -648,9 +654,8 @@ void GeodesicQuery::wide_links(const ExactGeodesicSolver& solver, QueryScratch::
   if (!link_through_covers(solver, radius, s, out, &narrow)) {  // no cover table
     out.samples = narrow.samples;
     out.via = narrow.via;
+    out.longest = narrow.longest;
   }
-  out.longest = 0;
-  for (const auto& [i, d] : out.samples) out.longest = std::max(out.longest, d);
   out.region.clear();
   for (std::uint32_t v : solver.touched_vertices()) {
     const double d = solver.distance(v);
@@ -764,10 +769,8 @@ PairAnswer GeodesicQuery::answer_near(const SurfacePoint& s, const SurfacePoint&
 // often than not (by area), and on an ordinary mesh those are no sparser than the rest: only
 // outliers count.
 double GeodesicQuery::sparseness(const SurfacePoint& p, double knee) const {
-  const std::uint32_t face = p.in_face(*mesh_).first;
-  double edges = 0;
-  for (std::uint32_t i = 0; i < 3; ++i) edges += geometry_->layout(3 * face + i).length;
-  return std::clamp(edges / (3 * knee * mean_edge_length_), 1.0, 3.0);
+  const double ratio = mean_face_edge(p.in_face(*mesh_).first) / mean_edge_length_;
+  return std::clamp(ratio / knee, 1.0, 3.0);
 }
 
 // Near pairs: the graph's answer (an upper bound of the distance, and symmetric) under

@@ -222,6 +222,7 @@ class GeodesicQuery {
   void link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
                      Links& out, bool solved_to_link_radius = false) const;
   double link_solve_radius(const SurfacePoint& p) const;
+  double mean_face_edge(std::uint32_t face) const;
   bool link_through_covers(const ExactGeodesicSolver& solver, double radius,
                            QueryScratch::Impl& s, Links& out,
                            const Links* base = nullptr) const;
