@@ -7,7 +7,7 @@
 // its reply line is read), errors by reason and, with --daemon-pid, the daemon's resident memory.
 //
 //   load_generator [--host 127.0.0.1] [--port 7878] [--mesh spot] [--connections 16]
-//                  [--depth 8] [--duration 10] [--warmup 1] [--rate 0]
+//                  [--depth 8] [--duration 10] [--warmup 1] [--rate 0] [--arrivals even]
 //                  [--mix distance=1,path=0,field=0,matrix=0,exact=0] [--points face|vertex]
 //                  [--encoding f32le-base64|json] [--matrix-size 4] [--seed 1]
 //                  [--bad 0] [--drain 10] [--allow-errors REASON,...]
@@ -16,10 +16,15 @@
 //
 // --rate R (requests/s over all connections) paces the requests (open loop; a request whose
 // slot comes while `depth` are in flight is counted as "late" and sent when a slot frees);
-// 0 runs closed loop, as fast as the server answers. --in-process runs the same random
-// point-to-point distances on GeodesicQuery directly, one scratch per thread: the reference
-// rate the daemon is compared with. Run the daemon with log_level "warn" (or "info") while
-// measuring: per-request lines are debug.
+// 0 runs closed loop, as fast as the server answers. With a rate, --arrivals even (default):
+// each connection sends every N/R s, the connections' slots spread evenly over that interval
+// (one request every 1/R s in all); --arrivals poisson: each connection's gaps are exponential
+// with mean N/R s, so the sum is a Poisson process of rate R (bursts included, as from many
+// independent clients). --in-process runs the same random point-to-point distances on
+// GeodesicQuery directly, one scratch per thread: the reference rate the daemon is compared
+// with; it also prints the latencies of an ideal server at half that rate (Poisson arrivals, one
+// FIFO queue, the measured service times, no overhead), the floor for the daemon's. Run the
+// daemon with log_level "warn" (or "info") while measuring: per-request lines are debug.
 //
 // --bad F (0 to 1): that fraction of the requests of each connection are bad, spread evenly
 // (every 1/F-th request) and cycling through these kinds, each with the reply it must get:
@@ -103,6 +108,7 @@ struct Options {
   double duration = 10;  ///< s of measurement, after the warmup
   double warmup = 1;     ///< s of load before measuring
   double rate = 0;       ///< requests/s over all connections; 0: closed loop
+  bool poisson = false;  ///< with --rate: Poisson arrivals instead of evenly spaced ones
   std::map<std::string, double> mix = {{"distance", 1}};
   std::string points = "face";
   std::string encoding = "f32le-base64";
@@ -151,6 +157,11 @@ Options parse(int argc, char** argv) {
     else if (a == "--duration") o.duration = std::stod(next());
     else if (a == "--warmup") o.warmup = std::stod(next());
     else if (a == "--rate") o.rate = std::stod(next());
+    else if (a == "--arrivals") {
+      const std::string kind = next();
+      if (kind != "even" && kind != "poisson") usage("--arrivals must be even or poisson");
+      o.poisson = kind == "poisson";
+    }
     else if (a == "--points") o.points = next();
     else if (a == "--encoding") o.encoding = next();
     else if (a == "--matrix-size") o.matrix_size = std::stoi(next());
@@ -336,7 +347,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
                  std::size_t bad_offset, Clock::time_point measure_from,
                  Clock::time_point stop_at, std::function<void()> on_finished)
       : o_(o), shape_(shape), mesh_json_(json(o.mesh).dump()), socket_(io), timer_(io),
-        points_(shape, o.points, seed),
+        points_(shape, o.points, seed), arrival_rng_(seed ^ 0x9e3779b97f4a7c15ULL),
         measure_from_(measure_from), stop_at_(stop_at), bad_count_(bad_offset),
         on_finished_(std::move(on_finished)) {
     for (const auto& [name, weight] : o.mix) {
@@ -348,13 +359,20 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     pick_ = std::discrete_distribution<std::size_t>(weights_.begin(), weights_.end());
   }
 
-  void start(const tcp::endpoint& endpoint) {
+  /// `phase` in [0, 1): where in the per-connection interval this connection's first even slot
+  /// falls, so that N connections at rate R send one request every 1/R s, not N at once.
+  void start(const tcp::endpoint& endpoint, double phase) {
     socket_.connect(endpoint);
     socket_.set_option(tcp::no_delay(true));
     read();
     if (o_.rate > 0) {
       interval_ = std::chrono::duration<double>(o_.connections / o_.rate);
       next_slot_ = Clock::now();
+      if (o_.poisson) {
+        next_slot_ += next_gap();
+      } else {
+        next_slot_ += std::chrono::duration_cast<Clock::duration>(interval_ * phase);
+      }
       tick();
     } else {
       for (int i = 0; i < o_.depth; ++i) send_one();
@@ -535,12 +553,21 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
         ++stats_.late;
         ++owed_;
       }
-      next_slot_ += std::chrono::duration_cast<Clock::duration>(interval_);
+      next_slot_ +=
+          o_.poisson ? next_gap() : std::chrono::duration_cast<Clock::duration>(interval_);
     }
     timer_.expires_at(std::min(next_slot_, stop_at_));
     timer_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
       if (!ec) self->tick();
     });
+  }
+
+  /// Time to this connection's next arrival of a Poisson process of rate R / connections (the
+  /// sum over the connections is a Poisson process of rate R).
+  Clock::duration next_gap() {
+    std::exponential_distribution<double> gap_seconds(1.0 / interval_.count());
+    const double seconds = gap_seconds(arrival_rng_);
+    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
   }
 
   void write() {
@@ -701,6 +728,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
   tcp::socket socket_;
   asio::steady_timer timer_;
   PointSource points_;
+  std::mt19937_64 arrival_rng_;  ///< its own stream: the same points whatever the arrivals
   std::vector<std::string> labels_;
   std::size_t good_kinds_ = 0;
   std::vector<double> weights_;
@@ -835,7 +863,7 @@ int run_network(const Options& o) {
     connections.push_back(std::make_shared<LoadConnection>(
         io, o, shape, o.seed * 1000 + static_cast<unsigned>(i), static_cast<std::size_t>(i),
         measure_from, stop_at, on_finished));
-    connections.back()->start(endpoint);
+    connections.back()->start(endpoint, static_cast<double>(i) / o.connections);
   }
   drain_timer.expires_at(stop_at + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.drain)));
   drain_timer.async_wait([&](boost::system::error_code ec) {
@@ -888,7 +916,8 @@ int run_network(const Options& o) {
   std::printf("mesh %s (%llu vertices, %llu faces), %d connections x depth %d, %s, mix",
               o.mesh.c_str(), static_cast<unsigned long long>(shape.vertices),
               static_cast<unsigned long long>(shape.faces), o.connections, o.depth,
-              o.rate > 0 ? ("rate " + std::to_string(static_cast<long>(o.rate)) + "/s").c_str()
+              o.rate > 0 ? ("rate " + std::to_string(static_cast<long>(o.rate)) + "/s " +
+                            (o.poisson ? "poisson" : "even")).c_str()
                          : "closed loop");
   for (const auto& [k, v] : o.mix) std::printf(" %s=%g", k.c_str(), v);
   std::printf(", bad %g, points %s\n", o.bad, o.points.c_str());
@@ -965,6 +994,7 @@ int run_network(const Options& o) {
         {"connections", o.connections},
         {"depth", o.depth},
         {"rate", o.rate},
+        {"arrivals", o.poisson ? "poisson" : "even"},
         {"duration_s", o.duration},
         {"warmup_s", o.warmup},
         {"drain_s", o.drain},
@@ -997,6 +1027,30 @@ int run_network(const Options& o) {
     write_atomically(o.json_path, summary.dump(2) + "\n");
   }
   return failures.empty() ? 0 : 1;
+}
+
+/// Latencies (ms) of a server with no overhead at all: Poisson arrivals of `rate` per second,
+/// one FIFO queue, `workers` workers, service times drawn from the measured ones (ms). What the
+/// daemon's latencies at that rate are to be compared with: the rest is the daemon's own cost.
+std::vector<double> ideal_server_latencies(const std::vector<double>& service_ms, int workers,
+                                           double rate, unsigned seed) {
+  std::vector<double> sojourn;
+  if (service_ms.empty() || rate <= 0 || workers <= 0) return sojourn;
+  std::mt19937_64 rng(seed);
+  std::exponential_distribution<double> gap_ms(rate / 1000.0);
+  std::uniform_int_distribution<std::size_t> pick(0, service_ms.size() - 1);
+  std::vector<double> free_at(static_cast<std::size_t>(workers), 0.0);
+  const std::size_t n = std::max<std::size_t>(200000, service_ms.size());
+  sojourn.reserve(n);
+  double arrival = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    arrival += gap_ms(rng);
+    auto worker = std::min_element(free_at.begin(), free_at.end());
+    const double start = std::max(arrival, *worker);
+    *worker = start + service_ms[pick(rng)];
+    sojourn.push_back(*worker - arrival);
+  }
+  return sojourn;
 }
 
 int run_in_process(const Options& o) {
@@ -1044,6 +1098,12 @@ int run_in_process(const Options& o) {
   std::printf("throughput   %.0f distances/s\n", static_cast<double>(done.load()) / o.duration);
   std::printf("latency ms   p50 %.3f  p99 %.3f  p999 %.3f\n", percentile(all, 0.5),
               percentile(all, 0.99), percentile(all, 0.999));
+  const double half_rate = static_cast<double>(done.load()) / o.duration / 2;
+  std::vector<double> sojourn = ideal_server_latencies(all, o.threads, half_rate, o.seed);
+  std::printf("ideal server at half that rate (%.0f/s, Poisson arrivals, FIFO, %d workers, these "
+              "service times, no overhead): p50 %.3f  p99 %.3f  p999 %.3f\n",
+              half_rate, o.threads, percentile(sojourn, 0.5), percentile(sojourn, 0.99),
+              percentile(sojourn, 0.999));
   return 0;
 }
 

@@ -171,7 +171,8 @@ namespace {
 // yet are infinitely far, so every component is seeded before any gets a second sample.
 std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
                                                   const IntrinsicGeometry& geometry,
-                                                  std::uint32_t count, SamplingMethod method,
+                                                  std::uint32_t count,
+                                                  std::uint32_t candidates, SamplingMethod method,
                                                   double& covering_radius,
                                                   const BuildProgress& progress) {
   const std::uint32_t nv = static_cast<std::uint32_t>(mesh.num_vertices());
@@ -184,7 +185,9 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
     return a.first < b.first || (a.first == b.first && a.second > b.second);
   };
   std::priority_queue<Entry, std::vector<Entry>, decltype(lower_priority)> farthest(lower_priority);
-  for (std::uint32_t v = 0; v < nv; ++v) {
+  // Only candidates enter the heap; the field covers every vertex.
+  const std::uint32_t eligible = candidates ? std::min(candidates, nv) : nv;
+  for (std::uint32_t v = 0; v < eligible; ++v) {
     if (!mesh.is_isolated_vertex(v)) farthest.push({kInfinity, v});
   }
   // Only the solver of the chosen method is built: each holds per-vertex scratch.
@@ -222,7 +225,7 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
       lowered.assign(by_fmm.begin(), by_fmm.end());
     }
     for (std::uint32_t u : lowered) {
-      if (field[u] > 0) farthest.push({field[u], u});
+      if (field[u] > 0 && u < eligible) farthest.push({field[u], u});
     }
     if (progress && (samples.size() % 64 == 0 || samples.size() == count)) {
       progress("sampling", static_cast<double>(samples.size()) / count);
@@ -231,8 +234,14 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
   // The covering radius: the farthest any vertex is from its nearest sample.
   covering_radius = 0;
   for (std::uint32_t v = 0; v < nv; ++v) {
-    if (!mesh.is_isolated_vertex(v) && std::isfinite(field[v])) {
+    if (mesh.is_isolated_vertex(v)) continue;
+    if (std::isfinite(field[v])) {
       covering_radius = std::max(covering_radius, field[v]);
+    } else if (eligible < nv) {
+      throw InvalidInput("BadGraphSize", "vertex " + std::to_string(v) +
+                                             " is in a component with no candidate vertex (ids "
+                                             "below " + std::to_string(eligible) +
+                                             "): no sample can reach it");
     }
   }
   return samples;
@@ -251,11 +260,21 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   }
   std::uint32_t num_samples = options.num_samples ? options.num_samples : default_samples;
   const std::uint32_t neighbors = options.neighbors ? options.neighbors : default_neighbors;
+  if (options.candidate_vertices > 0) {
+    std::size_t usable_candidates = 0;
+    const auto limit = std::min<std::size_t>(options.candidate_vertices, mesh.num_vertices());
+    for (std::uint32_t v = 0; v < limit; ++v) {
+      usable_candidates += mesh.is_isolated_vertex(v) ? 0 : 1;
+    }
+    usable_vertices = usable_candidates;
+  }
   if (options.num_samples > usable_vertices) {
     throw InvalidInput("TooManySamples", "asked for " + std::to_string(options.num_samples) +
                                              " samples but the mesh has only " +
                                              std::to_string(usable_vertices) +
-                                             " vertices in faces");
+                                             (options.candidate_vertices > 0
+                                                  ? " candidate vertices in faces"
+                                                  : " vertices in faces"));
   }
   num_samples = static_cast<std::uint32_t>(std::min<std::size_t>(num_samples, usable_vertices));
   if (neighbors == 0 || num_samples == 0) {
@@ -282,7 +301,8 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   graph.stats.sampling_used = method;
   double fps_radius = 0;
   graph.sample_vertex =
-      farthest_point_samples(mesh, geometry, num_samples, method, fps_radius, progress);
+      farthest_point_samples(mesh, geometry, num_samples, options.candidate_vertices, method,
+                             fps_radius, progress);
   graph.stats.sampling_seconds = seconds_since(start);
   const auto solves_start = std::chrono::steady_clock::now();
 

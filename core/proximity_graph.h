@@ -2,7 +2,9 @@
 // via proximity graph" (§2, building the graph): n_P samples by farthest-point sampling, each
 // linked to its m_P nearest samples by exact local geodesics.
 //
-// Samples are mesh vertices (farthest-point sampling picks the farthest vertex). For every graph
+// Samples are mesh vertices (farthest-point sampling picks the farthest vertex; the paper also
+// allows points inside faces, which measured no more accurate at Table 1 densities:
+// docs/accuracy.md, "Samples at vertices or inside faces"). For every graph
 // edge i -> j the graph keeps the exact geodesic distance and the unit direction in which the
 // geodesic leaves sample i towards j (in the frame of one of i's faces, see FaceDirection), so
 // paths can be traced back from the stored end directions. The local solve from each sample
@@ -39,6 +41,11 @@ struct ProximityGraphOptions {
   /// sets the link radius (see ProximityGraphView::link_radius).
   std::uint32_t link_samples = 0;
   SamplingMethod sampling = SamplingMethod::Automatic;
+  /// Only vertices with an id below this may become samples; 0: every vertex. For a mesh
+  /// refined by subdivision that keeps its original vertices first (scripts/subdivide_mesh.py):
+  /// samples where the original mesh had vertices, and the accuracy study of samples inside
+  /// faces (docs/accuracy.md). Every component needs a candidate.
+  std::uint32_t candidate_vertices = 0;
   /// Automatic sampling switches to exact distances when the mean Lo quality of the faces is
   /// below this (an equilateral triangle has 0.1443; the paper's poor model has 0.065) or more
   /// than `obtuse_fraction_threshold` of the faces are obtuse.

@@ -29,6 +29,7 @@ struct BuildArgs {
   std::uint32_t samples = 0;
   std::uint32_t neighbors = 0;
   std::uint32_t link_samples = 0;
+  std::uint32_t candidate_vertices = 0;  ///< 0: every vertex may be a sample
   double target_error = 0;  ///< 0: not given
   int threads = 0;
   std::string sampling = "auto";
@@ -108,6 +109,7 @@ void run_build(const BuildArgs& args) {
   ProximityGraphOptions options;
   options.num_samples = args.samples;
   options.neighbors = args.neighbors;
+  options.candidate_vertices = args.candidate_vertices;
   options.link_samples = args.link_samples;
   options.threads = args.threads;
   if (args.sampling == "fmm") {
@@ -246,6 +248,9 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
                     "n_P samples (default: the paper's Table 1 for the face count)");
   build->add_option("--neighbors", build_args->neighbors,
                     "m_P nearest samples linked to each (default: Table 1)");
+  build->add_option("--candidate-vertices", build_args->candidate_vertices,
+                    "only vertices with an id below N may be samples (default: all); e.g. the "
+                    "original vertices of a mesh refined by scripts/subdivide_mesh.py");
   build->add_option("--target-error", build_args->target_error,
                     "mean relative error wanted (e.g. 0.005 for 0.5%): picks m_P, and n_P unless "
                     "--samples is given, from the measured relationship in docs/accuracy.md; "

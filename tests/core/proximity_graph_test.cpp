@@ -946,6 +946,57 @@ TEST(ProximityGraph, RefusesMoreSamplesThanVertices) {
   check_edges_exact(m, g, /*directions=*/false, "complete graph");
 }
 
+TEST(ProximityGraph, SamplesOnlyAmongCandidateVertices) {
+  const TestMesh& m = spot();
+  const std::uint32_t candidates = static_cast<std::uint32_t>(m.mesh->num_vertices() / 3);
+  for (SamplingMethod method : {SamplingMethod::FastMarching, SamplingMethod::Exact}) {
+    ProximityGraphOptions o;
+    o.num_samples = 60;
+    o.neighbors = 8;
+    o.sampling = method;
+    o.candidate_vertices = candidates;
+    const ProximityGraph g = build_proximity_graph(*m.mesh, *m.geometry, o);
+    const std::string what =
+        method == SamplingMethod::Exact ? "candidates, exact" : "candidates, fmm";
+    ASSERT_EQ(g.sample_vertex.size(), 60u) << what;
+    for (std::uint32_t v : g.sample_vertex) EXPECT_LT(v, candidates) << what;
+    check_structure(m, g, what);
+    check_cover_table(m, g, what);
+    // The covering radius is still over every vertex, candidate or not.
+    const double r = max_finite(*m.mesh, distance_to_samples(m, g.sample_vertex));
+    EXPECT_TRUE(close_rel(g.covering_radius, r, 1e-6, 0)) << what << ": " << fmt(g.covering_radius)
+                                                          << " vs " << fmt(r);
+    // With every vertex a candidate, samples spread better: a smaller covering radius.
+    o.candidate_vertices = 0;
+    EXPECT_LT(build_proximity_graph(*m.mesh, *m.geometry, o).covering_radius, g.covering_radius)
+        << what;
+  }
+  ProximityGraphOptions too_many;
+  too_many.num_samples = 11;
+  too_many.neighbors = 4;
+  too_many.candidate_vertices = 10;
+  try {
+    build_proximity_graph(*m.mesh, *m.geometry, too_many);
+    FAIL() << "11 samples among 10 candidates accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.reason(), "TooManySamples");
+    EXPECT_NE(std::string(e.what()).find("10 candidate vertices"), std::string::npos) << e.what();
+  }
+  // A component without candidates could never be reached: refused, naming a vertex of it.
+  const TestMesh two = make_test_mesh(two_component_data());
+  ProximityGraphOptions first_only;
+  first_only.num_samples = 20;
+  first_only.neighbors = 4;
+  first_only.candidate_vertices = static_cast<std::uint32_t>(
+      make_test_mesh(holed_jittered_grid_data()).mesh->num_vertices());
+  try {
+    build_proximity_graph(*two.mesh, *two.geometry, first_only);
+    FAIL() << "a component without candidates accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("no candidate vertex"), std::string::npos) << e.what();
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // File round trip
 
