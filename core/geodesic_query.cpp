@@ -744,24 +744,32 @@ double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolve
 }
 
 // A near pair (see the file comment): the better of the join of both disks and a search from
-// their wide links (links_s / links_t hold the pair's links from link_pair()). Leaves solver_s /
+// their wide links (links_s / links_t hold the pair's links from link_pair(), and the pair's
+// positions are set, as answer() leaves them for its search). Leaves solver_s /
 // solver_t holding the solves from s / t and links_s / links_t the wide links, for paths.
 PairAnswer GeodesicQuery::answer_near(const SurfacePoint& s, const SurfacePoint& t,
                                       QueryScratch::Impl& w) const {
   solve_near(s, w.solver_s, w.interrupt);  // afresh, as for t: the same disk either way
   solve_near(t, w.solver_t, w.interrupt);
-  PairAnswer a;
   wide_links(w.solver_s, w, w.links_s, w.wide_s);
   wide_links(w.solver_t, w, w.links_t, w.wide_t);
   std::swap(w.links_s, w.wide_s);  // paths read links_s / links_t
   std::swap(w.links_t, w.wide_t);
-  a.distance = join_disks(w, w.solver_s, w.links_s, w.solver_t, w.links_t, a.join_point);
-  a.from = PairAnswer::From::Join;
-  w.source_position = s.position(*mesh_);
-  w.target_position = t.position(*mesh_);
-  a.distance = search(w, w.links_s, w.links_t, a.distance, a.meet, a.settled);
-  if (a.meet != UINT32_MAX) a.from = PairAnswer::From::Graph;
-  return a;
+  return join_or_search(w, w.solver_s, w.links_s, w.solver_t, w.links_t);
+}
+
+// The better of the join of two near disks (solvers a and b, their wide links and regions in
+// a_wide / b_wide) and a search from their wide links, bounded by the join. The pair's
+// positions must already be in s.source_position / s.target_position (the search's potential).
+PairAnswer GeodesicQuery::join_or_search(QueryScratch::Impl& s, const ExactGeodesicSolver& a,
+                                         const Links& a_wide, const ExactGeodesicSolver& b,
+                                         const Links& b_wide) const {
+  PairAnswer answer;
+  answer.distance = join_disks(s, a, a_wide, b, b_wide, answer.join_point);
+  answer.from = PairAnswer::From::Join;
+  answer.distance = search(s, a_wide, b_wide, answer.distance, answer.meet, answer.settled);
+  if (answer.meet != UINT32_MAX) answer.from = PairAnswer::From::Graph;
+  return answer;
 }
 
 // 1, or for a point among large triangles (its face's edges more than `knee` times the mesh's
@@ -886,6 +894,11 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
 
   std::vector<PathPoint>& piece = s.piece;
   piece.clear();
+  // The trace back from b, reversed, ends the piece exactly at b's vertex.
+  auto append_trace_back = [&] {
+    piece.insert(piece.end(), s.trace_back.points.rbegin() + 1, s.trace_back.points.rend());
+    piece.back() = {SurfacePoint::vertex(b_vertex), mesh_->position(b_vertex)};
+  };
   bool done = false;
   if (trace(a, edge, s.trace)) {
     if (ends_at(s.trace, b_vertex)) {
@@ -902,8 +915,7 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
       if (back && s.trace_back.stop_vertex == s.trace.stop_vertex &&
           std::abs(s.trace.length + s.trace_back.length - length) <= tolerance) {
         piece.assign(s.trace.points.begin(), s.trace.points.end());
-        piece.insert(piece.end(), s.trace_back.points.rbegin() + 1, s.trace_back.points.rend());
-        piece.back() = {SurfacePoint::vertex(b_vertex), mesh_->position(b_vertex)};
+        append_trace_back();
         done = true;
       } else {
         // Several bends: the traced parts up to the first bend from each end, and between
@@ -923,11 +935,7 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
           piece.assign(s.trace.points.begin(), s.trace.points.end());
           const GeodesicPath middle = s.solver_s.path_to(SurfacePoint::vertex(end));
           piece.insert(piece.end(), middle.points.begin() + 1, middle.points.end());
-          if (both) {
-            piece.insert(piece.end(), s.trace_back.points.rbegin() + 1,
-                         s.trace_back.points.rend());
-            piece.back() = {SurfacePoint::vertex(b_vertex), mesh_->position(b_vertex)};
-          }
+          if (both) append_trace_back();
           done = true;
           ++out.exact_segments;
         }
@@ -1191,6 +1199,7 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
     // target's, solved once per matrix.
     solve_near(sources[i], w.solver_s, w.interrupt);
     wide_links(w.solver_s, w, l, w.wide_s);
+    w.source_position = sources[i].position(*mesh_);
     for (std::size_t j : near) {
       if (solver_t_holds != j) {  // the join reads the target's solve too
         solve_near(targets[j], w.solver_t, w.interrupt);
@@ -1200,12 +1209,8 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
         wide_links(w.solver_t, w, w.many[S + j], w.wide[j]);
         w.has_wide[j] = 1;
       }
-      std::uint32_t meet = 0, settled = 0;
-      SurfacePoint at;
-      const double joined = join_disks(w, w.solver_s, w.wide_s, w.solver_t, w.wide[j], at);
-      w.source_position = sources[i].position(*mesh_);
       w.target_position = targets[j].position(*mesh_);
-      out[i * T + j] = search(w, w.wide_s, w.wide[j], joined, meet, settled);
+      out[i * T + j] = join_or_search(w, w.solver_s, w.wide_s, w.solver_t, w.wide[j]).distance;
     }
   }
   return out;

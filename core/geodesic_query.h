@@ -218,6 +218,9 @@ class GeodesicQuery {
                   Links& out) const;
   double join_disks(QueryScratch::Impl& s, const ExactGeodesicSolver& a, const Links& a_disk,
                     const ExactGeodesicSolver& b, const Links& b_disk, SurfacePoint& at) const;
+  PairAnswer join_or_search(QueryScratch::Impl& s, const ExactGeodesicSolver& a,
+                            const Links& a_wide, const ExactGeodesicSolver& b,
+                            const Links& b_wide) const;
   bool link_by_covers(const SurfacePoint& p, Links& out) const;
   void link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
                      Links& out, bool solved_to_link_radius = false) const;

@@ -168,11 +168,12 @@ namespace {
 // Farthest-point sampling (paper §2.1): each new sample is the vertex farthest from all
 // previous ones; the distance field is only lowered where the new sample is closer, and the
 // farthest vertex comes from a lazy max-heap, not a scan. Vertices of a component with no sample
-// yet are infinitely far, so every component is seeded before any gets a second sample.
+// yet are infinitely far, so every component is seeded before any gets a second sample. Only
+// vertices [0, eligible) may become samples (ProximityGraphOptions::candidate_vertices).
 std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
                                                   const IntrinsicGeometry& geometry,
                                                   std::uint32_t count,
-                                                  std::uint32_t candidates, SamplingMethod method,
+                                                  std::uint32_t eligible, SamplingMethod method,
                                                   double& covering_radius,
                                                   const BuildProgress& progress) {
   const std::uint32_t nv = static_cast<std::uint32_t>(mesh.num_vertices());
@@ -185,8 +186,7 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
     return a.first < b.first || (a.first == b.first && a.second > b.second);
   };
   std::priority_queue<Entry, std::vector<Entry>, decltype(lower_priority)> farthest(lower_priority);
-  // Only candidates enter the heap; the field covers every vertex.
-  const std::uint32_t eligible = candidates ? std::min(candidates, nv) : nv;
+  // Only vertices below `eligible` enter the heap; the field covers every vertex.
   for (std::uint32_t v = 0; v < eligible; ++v) {
     if (!mesh.is_isolated_vertex(v)) farthest.push({kInfinity, v});
   }
@@ -254,20 +254,16 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
                                      const BuildProgress& progress) {
   const auto start = std::chrono::steady_clock::now();
   auto [default_samples, default_neighbors] = default_graph_size(mesh.num_faces());
+  // Vertices [0, eligible) may become samples; those in faces are usable.
+  const auto nv = static_cast<std::uint32_t>(mesh.num_vertices());
+  const std::uint32_t eligible =
+      options.candidate_vertices > 0 ? std::min(options.candidate_vertices, nv) : nv;
   std::size_t usable_vertices = 0;
-  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+  for (std::uint32_t v = 0; v < eligible; ++v) {
     usable_vertices += mesh.is_isolated_vertex(v) ? 0 : 1;
   }
   std::uint32_t num_samples = options.num_samples ? options.num_samples : default_samples;
   const std::uint32_t neighbors = options.neighbors ? options.neighbors : default_neighbors;
-  if (options.candidate_vertices > 0) {
-    std::size_t usable_candidates = 0;
-    const auto limit = std::min<std::size_t>(options.candidate_vertices, mesh.num_vertices());
-    for (std::uint32_t v = 0; v < limit; ++v) {
-      usable_candidates += mesh.is_isolated_vertex(v) ? 0 : 1;
-    }
-    usable_vertices = usable_candidates;
-  }
   if (options.num_samples > usable_vertices) {
     throw InvalidInput("TooManySamples", "asked for " + std::to_string(options.num_samples) +
                                              " samples but the mesh has only " +
@@ -282,7 +278,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   }
 
   ProximityGraph graph;
-  graph.num_vertices = static_cast<std::uint32_t>(mesh.num_vertices());
+  graph.num_vertices = nv;
   graph.neighbors = neighbors;
 
   // The validation report gives both the quality that decides when fast marching cannot be
@@ -301,8 +297,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   graph.stats.sampling_used = method;
   double fps_radius = 0;
   graph.sample_vertex =
-      farthest_point_samples(mesh, geometry, num_samples, options.candidate_vertices, method,
-                             fps_radius, progress);
+      farthest_point_samples(mesh, geometry, num_samples, eligible, method, fps_radius, progress);
   graph.stats.sampling_seconds = seconds_since(start);
   const auto solves_start = std::chrono::steady_clock::now();
 
