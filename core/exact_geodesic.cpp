@@ -5,7 +5,6 @@
 #include <string>
 
 #include "core/errors.h"
-#include "core/quaternary_heap.h"
 
 namespace geoprox {
 
@@ -82,7 +81,6 @@ ExactGeodesicSolver::ExactGeodesicSolver(const TriangleMesh& mesh,
     : mesh_(&mesh), geometry_(&geometry) {
   GEOPROX_ASSERT(&geometry.mesh() == &mesh, "geometry was built for another mesh");
   const std::size_t nv = mesh.num_vertices(), nf = mesh.num_faces();
-  vertex_stamp_.assign(nv, 0);
   vertex_distance_.assign(nv, kInfinity);
   vertex_via_window_.assign(nv, -1);
   vertex_via_vertex_.assign(nv, kViaNone);
@@ -91,22 +89,24 @@ ExactGeodesicSolver::ExactGeodesicSolver(const TriangleMesh& mesh,
   vertex_target_stamp_.assign(nv, 0);
   vertex_first_target_.assign(nv, -1);
   halfedge_stamp_.assign(3 * nf, 0);
-  halfedge_first_window_.assign(3 * nf, -1);
+  halfedge_first_chunk_.assign(3 * nf, -1);
   face_stamp_.assign(nf, 0);
   face_first_target_.assign(nf, -1);
   face_first_seed_.assign(nf, -1);
 }
 
 void ExactGeodesicSolver::reset() {
+  // Distances are reset where the last solve set them (no stamp to check on every read).
+  for (std::uint32_t v : touched_vertices_) vertex_distance_[v] = kInfinity;
   ++generation_;
   if (generation_ == 0) {  // wrapped: clear the stamps once every 2^32 solves
-    std::fill(vertex_stamp_.begin(), vertex_stamp_.end(), 0);
     std::fill(vertex_target_stamp_.begin(), vertex_target_stamp_.end(), 0);
     std::fill(halfedge_stamp_.begin(), halfedge_stamp_.end(), 0);
     std::fill(face_stamp_.begin(), face_stamp_.end(), 0);
     generation_ = 1;
   }
   windows_.clear();
+  chunks_.clear();
   queue_.clear();
   seeds_.clear();
   sources_.clear();
@@ -129,24 +129,22 @@ void ExactGeodesicSolver::touch_face(std::uint32_t f) {
 }
 
 void ExactGeodesicSolver::push(double key, std::uint32_t item) {
-  quaternary_heap_push(queue_, QueueEntry{key, item});
+  queue_.push(QueueEntry{key, item});
   stats_.peak_queue = std::max(stats_.peak_queue, queue_.size());
 }
 
 void ExactGeodesicSolver::pop() {
   ++stats_.queue_pops;
-  quaternary_heap_pop(queue_);
+  queue_.pop();
 }
 
 void ExactGeodesicSolver::relax_vertex(std::uint32_t v, double distance, std::int32_t via_window,
                                        std::int32_t via_vertex, std::uint32_t source_index) {
-  if (vertex_stamp_[v] != generation_) {
-    vertex_stamp_[v] = generation_;
+  if (!(distance < vertex_distance_[v])) return;
+  if (vertex_distance_[v] == kInfinity) {  // first reached in this solve
     touched_vertices_.push_back(v);
-    vertex_distance_[v] = kInfinity;
     vertex_emitted_[v] = 0;
   }
-  if (!(distance < vertex_distance_[v])) return;
   vertex_distance_[v] = distance;
   vertex_via_window_[v] = via_window;
   vertex_via_vertex_[v] = via_vertex;
@@ -192,7 +190,7 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
 
   bool stopped = false;
   while (!queue_.empty()) {
-    const QueueEntry top = queue_.front();
+    const QueueEntry top = queue_.top();
     if (!targets_.empty()) {
       // Only targets within max_distance count: beyond it nothing is final.
       settle_targets_up_to(std::min(top.key, options.max_distance));
@@ -215,6 +213,10 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
     }
     pop();
     if (options.interrupt && (stats_.queue_pops & 1023) == 0) options.interrupt->check();
+    // The next window was stored long ago: start loading it while this entry is processed.
+    if (!queue_.empty() && !(queue_.top().item & kVertexItem)) {
+      __builtin_prefetch(&windows_[queue_.top().item]);
+    }
     if (top.item & kVertexItem) {
       const std::uint32_t v = top.item & ~kVertexItem;
       if (vertex_emitted_[v] || top.key != vertex_distance_[v]) continue;
@@ -288,7 +290,7 @@ void ExactGeodesicSolver::seed_face_point(std::uint32_t source_index, double off
     const Vec2 ph = face_to_halfedge_frame(g, face, i, p);
     // In the twin's frame (origin at h's target, x towards h's origin) the point lies below.
     create_window(static_cast<std::uint32_t>(t), 0, lay.length, {lay.length - ph.x, -ph.y},
-                  offset, -1, -1, seed_index, source_index);
+                  offset, -1, -1 - seed_index, source_index);
   }
 }
 
@@ -406,10 +408,10 @@ void ExactGeodesicSolver::emit_into_corner(std::uint32_t v, std::uint32_t h, dou
     if (x1 < x0) std::swap(x0, x1);
   }
   create_window(static_cast<std::uint32_t>(t), L - x1, L - x0, {L - lay.cx, -lay.cy},
-                vertex_distance_[v], -1, static_cast<std::int32_t>(v), -1, vertex_source_[v]);
+                vertex_distance_[v], -1, static_cast<std::int32_t>(v), vertex_source_[v]);
 }
 
-bool ExactGeodesicSolver::trim_window(Window& w) const {
+bool ExactGeodesicSolver::trim_window(Window& w, double& key) const {
   const std::uint32_t h = w.halfedge;
   const HalfedgeLayout& lay = geometry_->layout(h);
   const double L = lay.length;
@@ -463,6 +465,8 @@ bool ExactGeodesicSolver::trim_window(Window& w) const {
       if (lowest > dc + std::max(c0, c1) + slack) return false;
     }
   }
+  // The key from the end distances already at hand (window_key without its square roots).
+  key = w.sx < w.b0 ? d0 : (w.sx > w.b1 ? d1 : w.sigma - w.sy);
   return true;
 }
 
@@ -568,40 +572,55 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
   const double slack = kPruneSlack * (w.sigma + std::abs(w.sx) + std::abs(w.sy) + L);
   const std::int32_t twin = mesh_->twin(h);
   bool alive = true;
+  // Spans are rounded outwards to float, and the twin's are mirrored: a margin keeps the
+  // pre-filter conservative; the exact overlap test follows on the window itself.
+  const double margin = 1e-6 * L;
   for (int side = 0; side < 2 && alive; ++side) {
     if (side == 1 && twin < 0) break;
     const std::uint32_t list = side == 0 ? h : static_cast<std::uint32_t>(twin);
-    for_each_live_window(list, [&](std::int32_t, Window& o) {
-      if (!alive) return;
-      // Most windows on an edge cover other stretches of it: skip them before any arithmetic.
-      const double their_lo = side == 0 ? o.b0 : L - o.b1;
-      const double their_hi = side == 0 ? o.b1 : L - o.b0;
-      if (!(std::min(mine.hi, their_hi) > std::max(mine.lo, their_lo))) return;
-      EdgeDistance theirs = side == 0
-                                ? EdgeDistance{o.sx, o.sy * o.sy, o.sigma, o.b0, o.b1}
-                                : EdgeDistance{L - o.sx, o.sy * o.sy, o.sigma, L - o.b1, L - o.b0};
-      const EdgeDistance theirs_before = theirs;
-      bool mine_alive, theirs_alive;
-      trim_pair(mine, theirs, slack, mine_alive, theirs_alive);
-      if (!mine_alive) {
-        alive = false;
-        return;
-      }
-      if (o.propagated) return;  // already unfolded: it keeps what it covered
-      // The new window may also cut an ending off a window still waiting in the queue.
-      if (!theirs_alive) {
-        o.key = kInfinity;
-        ++stats_.windows_pruned;
-      } else if (theirs.lo != theirs_before.lo || theirs.hi != theirs_before.hi) {
-        if (side == 0) {
-          o.b0 = theirs.lo;
-          o.b1 = theirs.hi;
-        } else {
-          o.b0 = L - theirs.hi;
-          o.b1 = L - theirs.lo;
+    if (halfedge_stamp_[list] != generation_) continue;
+    for (std::int32_t c = halfedge_first_chunk_[list]; c >= 0 && alive; c = chunks_[c].next) {
+      for (WindowSpan& span : chunks_[c].spans) {
+        if (span.window < 0) break;
+        // Most windows on an edge cover other stretches of it: skip them before reading them.
+        const double span_lo = side == 0 ? span.lo : L - span.hi;
+        const double span_hi = side == 0 ? span.hi : L - span.lo;
+        if (!(std::min(mine.hi, span_hi) > std::max(mine.lo, span_lo) - margin)) continue;
+        Window& o = windows_[static_cast<std::size_t>(span.window)];
+        if (o.key == kInfinity) {  // dropped since it was listed
+          span.lo = std::numeric_limits<float>::infinity();
+          span.hi = -std::numeric_limits<float>::infinity();
+          continue;
+        }
+        const double their_lo = side == 0 ? o.b0 : L - o.b1;
+        const double their_hi = side == 0 ? o.b1 : L - o.b0;
+        if (!(std::min(mine.hi, their_hi) > std::max(mine.lo, their_lo))) continue;
+        EdgeDistance theirs = side == 0
+                                  ? EdgeDistance{o.sx, o.sy * o.sy, o.sigma, o.b0, o.b1}
+                                  : EdgeDistance{L - o.sx, o.sy * o.sy, o.sigma, L - o.b1, L - o.b0};
+        const EdgeDistance theirs_before = theirs;
+        bool mine_alive, theirs_alive;
+        trim_pair(mine, theirs, slack, mine_alive, theirs_alive);
+        if (!mine_alive) {
+          alive = false;
+          break;
+        }
+        if (o.propagated) continue;  // already unfolded: it keeps what it covered
+        // The new window may also cut an ending off a window still waiting in the queue.
+        if (!theirs_alive) {
+          o.key = kInfinity;
+          ++stats_.windows_pruned;
+        } else if (theirs.lo != theirs_before.lo || theirs.hi != theirs_before.hi) {
+          if (side == 0) {
+            o.b0 = theirs.lo;
+            o.b1 = theirs.hi;
+          } else {
+            o.b0 = L - theirs.hi;
+            o.b1 = L - theirs.lo;
+          }
         }
       }
-    });
+    }
   }
   if (!alive) return false;
   w.b0 = mine.lo;
@@ -611,8 +630,7 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
 
 void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, double b1,
                                         Vec2 source, double sigma, std::int32_t parent,
-                                        std::int32_t origin, std::int32_t seed,
-                                        std::uint32_t source_index) {
+                                        std::int32_t root, std::uint32_t source_index) {
   const double L = geometry_->layout(halfedge).length;
   b0 = std::clamp(b0, 0.0, L);
   b1 = std::clamp(b1, 0.0, L);
@@ -629,36 +647,71 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
     }
     source.y = 0;
   }
-  Window w{b0,       b1,       0,     -1,     false,  source.x,    source.y,
-           sigma,    halfedge, parent, origin, seed,   source_index};
-  if (!trim_window(w) || !trim_against_edge_windows(w)) {
+  Window w{b0, b1, 0, source.x, source.y, sigma, halfedge, parent, root, source_index, 0};
+  double key;
+  if (!trim_window(w, key)) {
     ++stats_.windows_pruned;
     return;
   }
-  w.key = window_key(w);
-  if (halfedge_stamp_[halfedge] != generation_) {
-    halfedge_stamp_[halfedge] = generation_;
-    halfedge_first_window_[halfedge] = -1;
+  const double b0_trimmed = w.b0, b1_trimmed = w.b1;
+  if (!trim_against_edge_windows(w)) {
+    ++stats_.windows_pruned;
+    return;
   }
+  // The key trim_window computed holds unless the other windows cut the interval further.
+  w.key = w.b0 == b0_trimmed && w.b1 == b1_trimmed ? key : window_key(w);
   const auto index = static_cast<std::uint32_t>(windows_.size());
-  w.next_on_halfedge = halfedge_first_window_[halfedge];
-  halfedge_first_window_[halfedge] = static_cast<std::int32_t>(index);
   windows_.push_back(w);
+  list_window(halfedge, index, w.b0, w.b1);
   ++stats_.windows_created;
   if (parent < 0) ++stats_.pseudo_source_windows;
   push(w.key, index);
   if (!targets_.empty()) update_targets_in_face(TriangleMesh::face_of(halfedge));
 }
 
+void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t index, double b0,
+                                      double b1) {
+  if (halfedge_stamp_[halfedge] != generation_) {
+    halfedge_stamp_[halfedge] = generation_;
+    halfedge_first_chunk_[halfedge] = -1;
+  }
+  std::int32_t head = halfedge_first_chunk_[halfedge];
+  int slot = SpanChunk::kCapacity;
+  if (head >= 0) {
+    for (slot = 0; slot < SpanChunk::kCapacity; ++slot) {
+      if (chunks_[head].spans[slot].window < 0) break;
+    }
+  }
+  if (slot == SpanChunk::kCapacity) {
+    SpanChunk chunk;
+    for (WindowSpan& span : chunk.spans) span.window = -1;
+    chunk.next = head;
+    head = static_cast<std::int32_t>(chunks_.size());
+    chunks_.push_back(chunk);
+    halfedge_first_chunk_[halfedge] = head;
+    slot = 0;
+  }
+  // Rounded outwards so the float interval contains the double one.
+  auto down = [](double x) {
+    const auto f = static_cast<float>(x);
+    return f > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+  };
+  auto up = [](double x) {
+    const auto f = static_cast<float>(x);
+    return f < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  };
+  chunks_[head].spans[slot] = {down(b0), up(b1), static_cast<std::int32_t>(index)};
+}
+
 void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
   Window w = windows_[index];
   if (w.key != popped_key) return;  // dropped or re-queued since
-  if (!trim_window(w)) {
+  double key;
+  if (!trim_window(w, key)) {
     windows_[index].key = kInfinity;
     ++stats_.windows_pruned;
     return;
   }
-  const double key = window_key(w);
   windows_[index].b0 = w.b0;
   windows_[index].b1 = w.b1;
   if (key > popped_key) {  // trimming moved its nearest point away: process it later
@@ -667,7 +720,7 @@ void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
     return;
   }
   ++stats_.windows_propagated;
-  windows_[index].propagated = true;
+  windows_[index].propagated = 1;
 
   const IntrinsicGeometry& g = *geometry_;
   const std::uint32_t h = w.halfedge;
@@ -721,9 +774,10 @@ void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
     if (t >= 0 && lc > 0) {
       const double t0 = crossing(w.b0, 0, 0, cx, cy);
       const double t1 = left_end >= xc ? 1.0 : crossing(left_end, 0, 0, cx, cy);
-      const double ex = cx / length2(cx, cy), ey = cy / length2(cx, cy);
+      // Unit vector along a -> c; its length is that edge's length.
+      const double ex = cx / lc, ey = cy / lc;
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
-                    {sx * ex + sy * ey, cross2(ex, ey, sx, sy)}, w.sigma, self, w.origin, w.seed,
+                    {sx * ex + sy * ey, cross2(ex, ey, sx, sy)}, w.sigma, self, w.root,
                     w.source_index);
     }
   }
@@ -735,11 +789,10 @@ void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
     if (t >= 0 && lc > 0) {
       const double t0 = right_begin <= xc ? 0.0 : crossing(right_begin, cx, cy, L, 0);
       const double t1 = crossing(w.b1, cx, cy, L, 0);
-      const double len = length2(L - cx, cy);
-      const double ex = (L - cx) / len, ey = -cy / len;
+      const double ex = (L - cx) / lc, ey = -cy / lc;  // unit vector along c -> b
       const double rx = sx - cx, ry = sy - cy;
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
-                    {rx * ex + ry * ey, cross2(ex, ey, rx, ry)}, w.sigma, self, w.origin, w.seed,
+                    {rx * ex + ry * ey, cross2(ex, ey, rx, ry)}, w.sigma, self, w.root,
                     w.source_index);
     }
   }
@@ -843,16 +896,13 @@ ExactGeodesicSolver::Candidate ExactGeodesicSolver::best_in_face(std::uint32_t f
     if (L <= 0) continue;
     const Vec2 q = face_to_halfedge_frame(g, face, i, p);
     const double slack = kVisibilitySlack * L;
-    for (std::int32_t wi = halfedge_first_window_[h]; wi >= 0;
-         wi = windows_[static_cast<std::size_t>(wi)].next_on_halfedge) {
-      const Window& w = windows_[static_cast<std::size_t>(wi)];
-      if (w.key == kInfinity) continue;
+    for_each_live_window(h, [&](std::int32_t wi, const Window& w) {
       const double qy = std::max(q.y, 0.0);
       const double x = w.crossing_x(q.x, qy);
-      if (x < w.b0 - slack || x > w.b1 + slack) continue;
+      if (x < w.b0 - slack || x > w.b1 + slack) return;
       const double d = through_window(w, x, q.x, qy);
       if (d < best.distance) best = {Candidate::Kind::Window, d, wi, {q.x, qy}};
-    }
+    });
   }
   return best;
 }
@@ -1090,13 +1140,13 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
         const auto across = static_cast<std::uint32_t>(mesh_->twin(w.halfedge));
         path.direction_at_source = halfedge_direction(g, across, w.sx - p.x, w.sy - p.y);
       }
-      if (w.origin >= 0) {
-        builder.add(SurfacePoint::vertex(static_cast<std::uint32_t>(w.origin)));
-        vertex = w.origin;
+      if (w.root >= 0) {
+        builder.add(SurfacePoint::vertex(static_cast<std::uint32_t>(w.root)));
+        vertex = w.root;
         window = -1;
         continue;
       }
-      finish_at_seed(w.seed);
+      finish_at_seed(-1 - w.root);
       continue;
     }
     // From a vertex: follow how its distance was obtained.

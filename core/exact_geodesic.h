@@ -24,6 +24,8 @@
 #include "core/errors.h"
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
+#include "core/radix_heap.h"
+#include "core/segmented_array.h"
 #include "core/surface_point.h"
 
 namespace geoprox {
@@ -132,18 +134,17 @@ class ExactGeodesicSolver {
 
  private:
   struct Window {
-    // The fields read while walking a halfedge's window list come first (one cache line).
+    // 64 bytes: one cache line. The fields read while trimming come first.
     double b0, b1;     // interval along the halfedge, from its origin
     double key;        // smallest distance over the interval; kInfinity once dropped
-    std::int32_t next_on_halfedge;
-    bool propagated;   // unfolded into the next face already (never trimmed after that)
     double sx, sy;     // unfolded (pseudo-)source in the halfedge frame, sy < 0
     double sigma;      // distance already travelled to the (pseudo-)source
     std::uint32_t halfedge;
-    std::int32_t parent;    // window this one was unfolded from, or -1
-    std::int32_t origin;    // pseudo-source vertex when parent == -1, or -1 for a seed
-    std::int32_t seed;      // seed index when parent == -1 and origin == -1
-    std::uint32_t source_index;
+    std::int32_t parent;  // window this one was unfolded from, or -1
+    /// Where the chain of windows starts: a pseudo-source vertex (>= 0) or seed -1 - root.
+    std::int32_t root;
+    std::uint32_t source_index : 31;
+    std::uint32_t propagated : 1;  // unfolded into the next face already (never trimmed after)
 
     double distance_at(double x) const { return sigma + std::sqrt((x - sx) * (x - sx) + sy * sy); }
     /// Where the straight line from point (px, py), py >= 0, towards S crosses the edge's line
@@ -152,6 +153,21 @@ class ExactGeodesicSolver {
       return py - sy > 0 ? sx + (px - sx) * (-sy) / (py - sy) : px;
     }
   };
+
+  // The windows of a halfedge are listed in chunks of one cache line each, with their intervals
+  // rounded outwards to float: finding the few windows that overlap a new one then reads a line
+  // or two instead of one scattered Window per window on the edge. Intervals only shrink, so the
+  // rounded copies stay conservative; a dropped window's span is emptied when next met.
+  struct WindowSpan {
+    float lo, hi;
+    std::int32_t window;  // -1: free slot
+  };
+  struct SpanChunk {
+    static constexpr int kCapacity = 5;
+    WindowSpan spans[kCapacity];
+    std::int32_t next;  // older chunk of the same halfedge, or -1
+  };
+  static_assert(sizeof(Window) == 64 && sizeof(SpanChunk) == 64);
 
   struct QueueEntry {
     double key;
@@ -170,9 +186,11 @@ class ExactGeodesicSolver {
                         double angle_end);
   void propagate(std::uint32_t window_index, double popped_key);
   void create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source, double sigma,
-                     std::int32_t parent, std::int32_t origin, std::int32_t seed,
-                     std::uint32_t source_index);
-  bool trim_window(Window& w) const;
+                     std::int32_t parent, std::int32_t root, std::uint32_t source_index);
+  void list_window(std::uint32_t halfedge, std::uint32_t index, double b0, double b1);
+  /// Trims w against the distances of its face's corners; false if nothing is left. Sets key
+  /// to window_key(w).
+  bool trim_window(Window& w, double& key) const;
   bool trim_against_edge_windows(Window& w);
   static double window_key(const Window& w);
   static double through_window(const Window& w, double x, double px, double py);
@@ -187,31 +205,28 @@ class ExactGeodesicSolver {
   void update_targets_at_vertex(std::uint32_t vertex);
   void settle_targets_up_to(double key);
   Candidate best_in_face(std::uint32_t face, Vec2 point) const;
-  /// Calls f(index, window) for each live window on halfedge h, unlinking dropped ones.
+  /// Calls f(index, window) for each live window on halfedge h.
   template <class F>
-  void for_each_live_window(std::uint32_t h, F&& f) {
+  void for_each_live_window(std::uint32_t h, F&& f) const {
     if (halfedge_stamp_[h] != generation_) return;
-    std::int32_t* link = &halfedge_first_window_[h];
-    while (*link >= 0) {
-      Window& o = windows_[static_cast<std::size_t>(*link)];
-      if (o.key == kInfinity) {
-        *link = o.next_on_halfedge;
-        continue;
+    for (std::int32_t c = halfedge_first_chunk_[h]; c >= 0; c = chunks_[c].next) {
+      for (const WindowSpan& span : chunks_[c].spans) {
+        if (span.window < 0) break;
+        const Window& w = windows_[static_cast<std::size_t>(span.window)];
+        if (w.key != kInfinity) f(span.window, w);
       }
-      f(*link, o);
-      link = &o.next_on_halfedge;
     }
   }
   double vertex_estimate(std::uint32_t v) const {
-    return vertex_stamp_[v] == generation_ ? vertex_distance_[v] : kInfinity;
+    return vertex_distance_[v];
   }
 
   const TriangleMesh* mesh_;
   const IntrinsicGeometry* geometry_;
 
-  // Per-solve scratch, sized to the mesh once and validated by generation stamps.
+  // Per-solve scratch, sized to the mesh once: distances are reset through touched_vertices_,
+  // the rest is validated by generation stamps.
   std::uint32_t generation_ = 0;
-  std::vector<std::uint32_t> vertex_stamp_;
   std::vector<double> vertex_distance_;
   std::vector<std::int32_t> vertex_via_window_;  ///< window whose source reaches v, or -1
   std::vector<std::int32_t> vertex_via_vertex_;  ///< pseudo-source neighbour, or -1
@@ -220,13 +235,14 @@ class ExactGeodesicSolver {
   std::vector<std::uint32_t> vertex_target_stamp_;
   std::vector<std::int32_t> vertex_first_target_;  ///< head of the vertex's target list
   std::vector<std::uint32_t> halfedge_stamp_;
-  std::vector<std::int32_t> halfedge_first_window_;  ///< head of the halfedge's window list
+  std::vector<std::int32_t> halfedge_first_chunk_;  ///< newest chunk of the halfedge's windows
   std::vector<std::uint32_t> face_stamp_;
   std::vector<std::int32_t> face_first_target_;   ///< head of the face's target list
   std::vector<std::int32_t> face_first_seed_;     ///< head of the face's source-seed list
 
-  std::vector<Window> windows_;
-  std::vector<QueueEntry> queue_;
+  SegmentedArray<Window> windows_;
+  SegmentedArray<SpanChunk> chunks_;
+  RadixHeap<QueueEntry> queue_;
 
   struct Seed {
     std::uint32_t face;

@@ -1,11 +1,11 @@
 // A 4-ary min-heap over a reused std::vector (no paper: the textbook d-ary heap, d = 4).
 //
-// The exact solver's window queue and the graph searches push and pop millions of entries per
-// second. Against std::push_heap / std::pop_heap (binary) a 4-ary heap has half the depth, the
-// four children of a node share a cache line, and the smallest child is picked by a tournament
-// the compiler turns into conditional moves: which child wins is a coin toss, so a branch on it
-// is mispredicted half the time. Entries are any trivially copyable type with a `double key`;
-// equal keys come out in no particular order.
+// The graph searches push and pop millions of entries per second (the exact solver, whose keys
+// never decrease, uses core/radix_heap.h). Against std::push_heap / std::pop_heap (binary) a
+// 4-ary heap has half the depth, the four children of a node share a cache line, and the
+// smallest child is picked by a tournament the compiler turns into conditional moves: which
+// child wins is a coin toss, so a branch on it is mispredicted half the time. Entries are any
+// trivially copyable type with a `double key`; equal keys come out in no particular order.
 #pragma once
 
 #include <cstddef>

@@ -1,0 +1,100 @@
+// RadixHeap: pops in key order under the monotone use the exact solver makes of it, including
+// keys a few ulps below the last one popped, and stays valid across clear().
+#include "core/radix_heap.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <vector>
+
+namespace geoprox {
+namespace {
+
+struct Entry {
+  double key;
+  std::uint32_t item;
+};
+
+TEST(RadixHeap, PopsInKeyOrder) {
+  RadixHeap<Entry> heap;
+  const std::vector<double> keys = {3.5, 0.0, 1e-300, 7.25, 1.0, 1.0, 1e300, 2.0, 0.5};
+  for (std::uint32_t i = 0; i < keys.size(); ++i) heap.push({keys[i], i});
+  std::vector<double> sorted = keys;
+  std::sort(sorted.begin(), sorted.end());
+  for (double want : sorted) {
+    ASSERT_FALSE(heap.empty());
+    EXPECT_EQ(heap.top().key, want);
+    EXPECT_EQ(keys[heap.top().item], want);
+    heap.pop();
+  }
+  EXPECT_TRUE(heap.empty());
+  EXPECT_EQ(heap.size(), 0u);
+}
+
+TEST(RadixHeap, NegativeZeroAndInfinity) {
+  RadixHeap<Entry> heap;
+  heap.push({std::numeric_limits<double>::infinity(), 0});
+  heap.push({-0.0, 1});
+  heap.push({2.0, 2});
+  EXPECT_EQ(heap.top().item, 1u);
+  heap.pop();
+  EXPECT_EQ(heap.top().item, 2u);
+  heap.pop();
+  EXPECT_EQ(heap.top().item, 0u);
+  EXPECT_EQ(heap.top().key, std::numeric_limits<double>::infinity());
+}
+
+// Interleaved pushes and pops as in a Dijkstra-like solve: every new key is at least the last
+// key popped, except some that round a few ulps below it. Popped keys never decrease by more
+// than those ulps, every pushed entry comes out exactly once with its own key, and at every
+// step the popped entry is the smallest in the heap (up to that rounding).
+TEST(RadixHeap, MatchesASortedReferenceUnderMonotonePushes) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> step(0.0, 10.0);
+  std::uniform_int_distribution<int> coin(0, 9);
+  RadixHeap<Entry> heap;
+  for (int round = 0; round < 3; ++round) {  // the same heap, cleared between rounds
+    heap.clear();
+    std::vector<Entry> reference;  // entries still in the heap
+    std::vector<int> popped_count;
+    double last = 0;
+    std::uint32_t next_item = 0;
+    auto push = [&](double key) {
+      heap.push({key, next_item});
+      reference.push_back({key, next_item});
+      popped_count.push_back(0);
+      ++next_item;
+    };
+    for (int i = 0; i < 20; ++i) push(step(rng));
+    while (!heap.empty()) {
+      const Entry top = heap.top();
+      double smallest = std::numeric_limits<double>::infinity();
+      for (const Entry& e : reference) smallest = std::min(smallest, e.key);
+      // Ordered by max(key, last): an entry pushed below `last` comes out at `last`.
+      ASSERT_LE(std::max(top.key, last), std::max(smallest, last)) << "round " << round;
+      ASSERT_EQ(popped_count[top.item]++, 0) << "entry " << top.item << " popped twice";
+      heap.pop();
+      std::erase_if(reference, [&](const Entry& e) { return e.item == top.item; });
+      last = std::max(last, top.key);
+      const int pushes = coin(rng) < 7 ? 2 : 0;
+      for (int k = 0; k < pushes && next_item < 5000; ++k) {
+        if (coin(rng) == 0) {
+          push(std::nextafter(std::nextafter(last, 0.0), 0.0));  // rounded below the last key
+        } else {
+          push(last + step(rng) * (coin(rng) < 3 ? 1e-9 : 1.0));
+        }
+      }
+      ASSERT_EQ(heap.size(), reference.size());
+    }
+    for (std::uint32_t item = 0; item < next_item; ++item) {
+      EXPECT_EQ(popped_count[item], 1) << "entry " << item;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace geoprox
