@@ -2,11 +2,11 @@
 //
 // A full exact solve on a 100k-face mesh stores about 3 million 64-byte windows. Growing one
 // std::vector to that size copies every window about twice and faults every page in twice; in
-// blocks that never move, nothing is copied, and on Linux each block is offered to the kernel as
-// a transparent huge page, which turns ~50,000 page faults into ~100. The solver keeps its
-// blocks between solves (clear() only forgets the elements), so a reused solver allocates only
-// when a solve stores more than any before it. Elements must be trivially copyable; indexing
-// costs one extra load (the block table is small and stays in cache).
+// blocks that never move, nothing is copied, and on Linux each block after the first is offered
+// to the kernel as a transparent huge page, which turns ~50,000 page faults into ~100. The
+// solver keeps its blocks between solves (clear() only forgets the elements), so a reused solver
+// allocates only when a solve stores more than any before it. Elements must be trivially
+// copyable; indexing costs one extra load (the block table is small and stays in cache).
 #pragma once
 
 #include <cstddef>
@@ -77,7 +77,9 @@ class SegmentedArray {
     munmap(base + head + kBlockBytes, kBlockBytes - head);
     void* block = base + head;
 #if defined(MADV_HUGEPAGE)
-    madvise(block, kBlockBytes, MADV_HUGEPAGE);  // a hint: without huge pages nothing changes
+    // From the second block on: a small solve (a query's local disk) touches a few pages of the
+    // first block and should not commit a whole 2 MiB page per solver. A hint only.
+    if (!blocks_.empty()) madvise(block, kBlockBytes, MADV_HUGEPAGE);
 #endif
 #else
     void* block = std::aligned_alloc(kBlockBytes, kBlockBytes);
