@@ -578,49 +578,46 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
   for (int side = 0; side < 2 && alive; ++side) {
     if (side == 1 && twin < 0) break;
     const std::uint32_t list = side == 0 ? h : static_cast<std::uint32_t>(twin);
-    if (halfedge_stamp_[list] != generation_) continue;
-    for (std::int32_t c = halfedge_first_chunk_[list]; c >= 0 && alive; c = chunks_[c].next) {
-      for (WindowSpan& span : chunks_[c].spans) {
-        if (span.window < 0) break;
-        // Most windows on an edge cover other stretches of it: skip them before reading them.
-        const double span_lo = side == 0 ? span.lo : L - span.hi;
-        const double span_hi = side == 0 ? span.hi : L - span.lo;
-        if (!(std::min(mine.hi, span_hi) > std::max(mine.lo, span_lo) - margin)) continue;
-        Window& o = windows_[static_cast<std::size_t>(span.window)];
-        if (o.key == kInfinity) {  // dropped since it was listed
-          span.lo = std::numeric_limits<float>::infinity();
-          span.hi = -std::numeric_limits<float>::infinity();
-          continue;
-        }
-        const double their_lo = side == 0 ? o.b0 : L - o.b1;
-        const double their_hi = side == 0 ? o.b1 : L - o.b0;
-        if (!(std::min(mine.hi, their_hi) > std::max(mine.lo, their_lo))) continue;
-        EdgeDistance theirs = side == 0
-                                  ? EdgeDistance{o.sx, o.sy * o.sy, o.sigma, o.b0, o.b1}
-                                  : EdgeDistance{L - o.sx, o.sy * o.sy, o.sigma, L - o.b1, L - o.b0};
-        const EdgeDistance theirs_before = theirs;
-        bool mine_alive, theirs_alive;
-        trim_pair(mine, theirs, slack, mine_alive, theirs_alive);
-        if (!mine_alive) {
-          alive = false;
-          break;
-        }
-        if (o.propagated) continue;  // already unfolded: it keeps what it covered
-        // The new window may also cut an ending off a window still waiting in the queue.
-        if (!theirs_alive) {
-          o.key = kInfinity;
-          ++stats_.windows_pruned;
-        } else if (theirs.lo != theirs_before.lo || theirs.hi != theirs_before.hi) {
-          if (side == 0) {
-            o.b0 = theirs.lo;
-            o.b1 = theirs.hi;
-          } else {
-            o.b0 = L - theirs.hi;
-            o.b1 = L - theirs.lo;
-          }
+    for_each_span(*this, list, [&](WindowSpan& span) {
+      // Most windows on an edge cover other stretches of it: skip them before reading them.
+      const double span_lo = side == 0 ? span.lo : L - span.hi;
+      const double span_hi = side == 0 ? span.hi : L - span.lo;
+      if (!(std::min(mine.hi, span_hi) > std::max(mine.lo, span_lo) - margin)) return true;
+      Window& o = windows_[static_cast<std::size_t>(span.window)];
+      if (o.key == kInfinity) {  // dropped since it was listed
+        span.lo = std::numeric_limits<float>::infinity();
+        span.hi = -std::numeric_limits<float>::infinity();
+        return true;
+      }
+      const double their_lo = side == 0 ? o.b0 : L - o.b1;
+      const double their_hi = side == 0 ? o.b1 : L - o.b0;
+      if (!(std::min(mine.hi, their_hi) > std::max(mine.lo, their_lo))) return true;
+      EdgeDistance theirs = side == 0
+                                ? EdgeDistance{o.sx, o.sy * o.sy, o.sigma, o.b0, o.b1}
+                                : EdgeDistance{L - o.sx, o.sy * o.sy, o.sigma, L - o.b1, L - o.b0};
+      const EdgeDistance theirs_before = theirs;
+      bool mine_alive, theirs_alive;
+      trim_pair(mine, theirs, slack, mine_alive, theirs_alive);
+      if (!mine_alive) {
+        alive = false;
+        return false;
+      }
+      if (o.propagated) return true;  // already unfolded: it keeps what it covered
+      // The new window may also cut an ending off a window still waiting in the queue.
+      if (!theirs_alive) {
+        o.key = kInfinity;
+        ++stats_.windows_pruned;
+      } else if (theirs.lo != theirs_before.lo || theirs.hi != theirs_before.hi) {
+        if (side == 0) {
+          o.b0 = theirs.lo;
+          o.b1 = theirs.hi;
+        } else {
+          o.b0 = L - theirs.hi;
+          o.b1 = L - theirs.lo;
         }
       }
-    }
+      return true;
+    });
   }
   if (!alive) return false;
   w.b0 = mine.lo;

@@ -205,17 +205,26 @@ class ExactGeodesicSolver {
   void update_targets_at_vertex(std::uint32_t vertex);
   void settle_targets_up_to(double key);
   Candidate best_in_face(std::uint32_t face, Vec2 point) const;
+  /// Calls f(span) for each span listed on halfedge h (dropped windows included), until f
+  /// returns false. Self is the solver, const or not, so one walk serves readers and trimming.
+  template <class Self, class F>
+  static void for_each_span(Self& self, std::uint32_t h, F&& f) {
+    if (self.halfedge_stamp_[h] != self.generation_) return;
+    for (std::int32_t c = self.halfedge_first_chunk_[h]; c >= 0; c = self.chunks_[c].next) {
+      for (auto& span : self.chunks_[c].spans) {
+        if (span.window < 0) break;
+        if (!f(span)) return;
+      }
+    }
+  }
   /// Calls f(index, window) for each live window on halfedge h.
   template <class F>
   void for_each_live_window(std::uint32_t h, F&& f) const {
-    if (halfedge_stamp_[h] != generation_) return;
-    for (std::int32_t c = halfedge_first_chunk_[h]; c >= 0; c = chunks_[c].next) {
-      for (const WindowSpan& span : chunks_[c].spans) {
-        if (span.window < 0) break;
-        const Window& w = windows_[static_cast<std::size_t>(span.window)];
-        if (w.key != kInfinity) f(span.window, w);
-      }
-    }
+    for_each_span(*this, h, [&](const WindowSpan& span) {
+      const Window& w = windows_[static_cast<std::size_t>(span.window)];
+      if (w.key != kInfinity) f(span.window, w);
+      return true;
+    });
   }
   double vertex_estimate(std::uint32_t v) const {
     return vertex_distance_[v];

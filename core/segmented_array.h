@@ -64,12 +64,15 @@ class SegmentedArray {
   // Blocks are mapped straight from the kernel: from malloc, 2 MiB-aligned 2 MiB blocks come
   // from the heap once glibc's mmap threshold has risen, and alignment padding doubles them.
   void add_block() {
-    blocks_.reserve(blocks_.size() + 1);  // no leak if growing the table throws
+    blocks_.push_back(nullptr);  // grow the table first: a throw then leaks no block
 #if defined(__linux__)
     // Map twice the size and keep the aligned middle (huge pages need 2 MiB alignment).
     void* mapped = mmap(nullptr, 2 * kBlockBytes, PROT_READ | PROT_WRITE,
                         MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (mapped == MAP_FAILED) throw std::bad_alloc();
+    if (mapped == MAP_FAILED) {
+      blocks_.pop_back();
+      throw std::bad_alloc();
+    }
     auto* base = static_cast<char*>(mapped);
     const std::size_t head = (kBlockBytes - reinterpret_cast<std::uintptr_t>(base) % kBlockBytes) %
                              kBlockBytes;
@@ -79,13 +82,16 @@ class SegmentedArray {
 #if defined(MADV_HUGEPAGE)
     // From the second block on: a small solve (a query's local disk) touches a few pages of the
     // first block and should not commit a whole 2 MiB page per solver. A hint only.
-    if (!blocks_.empty()) madvise(block, kBlockBytes, MADV_HUGEPAGE);
+    if (blocks_.size() > 1) madvise(block, kBlockBytes, MADV_HUGEPAGE);
 #endif
 #else
     void* block = std::aligned_alloc(kBlockBytes, kBlockBytes);
-    if (block == nullptr) throw std::bad_alloc();
+    if (block == nullptr) {
+      blocks_.pop_back();
+      throw std::bad_alloc();
+    }
 #endif
-    blocks_.push_back(static_cast<T*>(block));
+    blocks_.back() = static_cast<T*>(block);
   }
   void release() {
     for (T* block : blocks_) {
