@@ -537,7 +537,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       out_.push_back(std::move(r.line));
       if (r.expects_reply) break;
     }
-    if (!writing_ && !out_.empty()) write();
+    if (!writing_ && !handling_replies_ && !out_.empty()) write();
   }
 
   void tick() {
@@ -594,8 +594,27 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
                                self->connection_lost("read: " + ec.message());
                                return;
                              }
-                             self->on_line(n);
+                             self->on_replies(n);
                            });
+  }
+
+  /// Handles the line read and every further complete line already buffered, then sends the
+  /// requests they freed in one write: a syscall costs ~2 us on this kind of VM, and the
+  /// generator shares the cores it measures with the daemon.
+  void on_replies(std::size_t n) {
+    handling_replies_ = true;
+    bool more = on_line(n);
+    while (more && !finished_) {
+      const auto begin = asio::buffers_begin(buffer_.data());
+      const auto end = asio::buffers_end(buffer_.data());
+      const auto newline = std::find(begin, end, '\n');
+      if (newline == end) break;
+      more = on_line(static_cast<std::size_t>(newline - begin) + 1);
+    }
+    handling_replies_ = false;
+    if (finished_) return;
+    if (!writing_ && !out_.empty()) write();
+    if (more) read();
   }
 
   void connection_lost(const std::string& why) {
@@ -663,7 +682,9 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     return id;
   }
 
-  void on_line(std::size_t n) {
+  /// Handles one reply line of n bytes at the front of buffer_; false once the connection is
+  /// done reading (finished, or nothing more to wait for).
+  bool on_line(std::size_t n) {
     std::string line(asio::buffers_begin(buffer_.data()), asio::buffers_begin(buffer_.data()) + static_cast<std::ptrdiff_t>(n));
     buffer_.consume(n);
     const auto now = Clock::now();
@@ -715,11 +736,9 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       ++stats_.unexpected_replies;
       stats_.note("unexpected reply: " + line.substr(0, 300));
     }
-    if (in_flight_ > 0 || now < stop_at_) {
-      read();
-    } else {
-      finish();
-    }
+    if (in_flight_ > 0 || now < stop_at_) return true;
+    finish();
+    return false;
   }
 
   const Options& o_;
@@ -740,6 +759,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
   std::vector<std::string> out_, writing_now_;
   std::vector<asio::const_buffer> buffers_;
   bool writing_ = false;
+  bool handling_replies_ = false;  ///< inside on_replies: send_one() leaves the write to it
   bool finished_ = false;
   int in_flight_ = 0;
   std::uint64_t owed_ = 0;

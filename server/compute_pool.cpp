@@ -4,6 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <string>
+
+#if defined(__linux__)
+#include <pthread.h>
+#endif
 
 #include "server/metrics.h"
 
@@ -13,7 +18,7 @@ ComputePool::ComputePool(unsigned threads, std::size_t max_queue, Metrics* metri
     : max_queue_(max_queue), metrics_(metrics) {
   if (threads == 0) threads = 1;
   threads_.reserve(threads);
-  for (unsigned i = 0; i < threads; ++i) threads_.emplace_back([this] { worker(); });
+  for (unsigned i = 0; i < threads; ++i) threads_.emplace_back([this, i] { worker(i); });
 }
 
 ComputePool::~ComputePool() { stop(); }
@@ -63,7 +68,14 @@ void ComputePool::stop() {
   threads_.clear();
 }
 
-void ComputePool::worker() {
+void ComputePool::worker(unsigned index) {
+#if defined(__linux__)
+  // Named for top -H, perf and /proc: "gp-compute-N".
+  const std::string name = "gp-compute-" + std::to_string(index);
+  pthread_setname_np(pthread_self(), name.substr(0, 15).c_str());
+#else
+  (void)index;
+#endif
   for (;;) {
     Task task;
     {

@@ -41,7 +41,7 @@ class ComputePool {
   void stop();
 
  private:
-  void worker();
+  void worker(unsigned index);
 
   std::size_t max_queue_;
   Metrics* metrics_;
