@@ -118,6 +118,9 @@ void ExactGeodesicSolver::reset() {
   touched_vertices_.clear();
   face_targets_ = 0;
   radius_reached_ = kInfinity;
+  skipped_min_key_ = kInfinity;
+  nearest_targets_.clear();
+  nearest_bound_ = kInfinity;
   stats_ = {};
 }
 
@@ -186,6 +189,9 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   targets_wanted_ = options.stop_after_targets == 0
                         ? targets_.size()
                         : std::min(options.stop_after_targets, targets_.size());
+  max_distance_ = options.max_distance;
+  min_distance_ = options.min_distance;
+  nearest_wanted_ = targets_wanted_ <= kMaxNearestTracked ? targets_wanted_ : 0;
 
   for (std::uint32_t i = 0; i < sources.size(); ++i) add_source(i, sources[i]);
 
@@ -194,21 +200,24 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
     const QueueEntry top = queue_.top();
     if (!targets_.empty()) {
       // Only targets within max_distance count: beyond it nothing is final.
-      settle_targets_up_to(std::min(top.key, options.max_distance));
+      // Windows not stored (store_limit) start at skipped_min_key_ or farther: nothing beyond
+      // that is final.
+      settle_targets_up_to(std::min({top.key, options.max_distance, skipped_min_key_}));
       if (settled_targets_.size() >= targets_wanted_ && top.key >= options.min_distance) {
-        radius_reached_ = top.key;
+        radius_reached_ = std::min(top.key, skipped_min_key_);
         stopped = true;
         break;
       }
     }
     if (top.key > options.max_distance) {
-      radius_reached_ = options.max_distance;
+      radius_reached_ = std::min(options.max_distance, skipped_min_key_);
       stopped = true;
       break;
     }
     if (options.max_queue_pops != 0 && stats_.queue_pops >= options.max_queue_pops &&
         top.key >= options.min_distance) {
-      radius_reached_ = top.key;  // every later entry starts at least this far out
+      // Every later entry starts at least this far out.
+      radius_reached_ = std::min(top.key, skipped_min_key_);
       stopped = true;
       break;
     }
@@ -226,7 +235,10 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
       propagate(top.item, top.key);
     }
   }
-  if (!stopped && !targets_.empty()) settle_targets_up_to(kInfinity);
+  if (!stopped) {
+    radius_reached_ = skipped_min_key_;
+    if (!targets_.empty()) settle_targets_up_to(skipped_min_key_);
+  }
   for (std::uint32_t v : touched_vertices_) {
     if (vertex_distance_[v] <= radius_reached_) ++stats_.vertices_reached;
   }
@@ -639,6 +651,13 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
     ++stats_.windows_pruned;
     return;
   }
+  // Trimming against the edge's windows only raises the key: beyond the limit already, the
+  // window would never be popped.
+  if (key > store_limit()) {
+    skipped_min_key_ = std::min(skipped_min_key_, key);
+    ++stats_.windows_beyond_stop;
+    return;
+  }
   const double b0_trimmed = w.b0, b1_trimmed = w.b1;
   if (!trim_against_edge_windows(w)) {
     ++stats_.windows_pruned;
@@ -793,6 +812,7 @@ void ExactGeodesicSolver::add_target(std::uint32_t index, const SurfacePoint& po
   Target target{};
   target.estimate = kInfinity;
   target.settled = false;
+  target.in_nearest = false;
   target.next = -1;
   if (point.kind == SurfacePoint::Kind::Vertex) {
     target.vertex = static_cast<std::int32_t>(point.id);
@@ -822,6 +842,34 @@ void ExactGeodesicSolver::improve_target(std::uint32_t index, double estimate) {
   t.estimate = estimate;
   target_queue_.push_back({estimate, index});
   std::push_heap(target_queue_.begin(), target_queue_.end(), std::greater<>{});
+  if (nearest_wanted_ > 0) track_nearest(index);
+}
+
+void ExactGeodesicSolver::track_nearest(std::uint32_t index) {
+  // nearest_targets_ holds the nearest_wanted_ targets of smallest estimate (distinct targets;
+  // estimates only fall, so one outside the set never drops below the set's largest without
+  // entering it). Once full, its largest estimate bounds where the solve stops.
+  Target& t = targets_[index];
+  if (t.in_nearest) {
+    if (index != nearest_targets_[nearest_worst_]) return;
+  } else if (nearest_targets_.size() < nearest_wanted_) {
+    t.in_nearest = true;
+    nearest_targets_.push_back(index);
+    if (nearest_targets_.size() < nearest_wanted_) return;
+  } else if (t.estimate < nearest_bound_) {
+    targets_[nearest_targets_[nearest_worst_]].in_nearest = false;
+    t.in_nearest = true;
+    nearest_targets_[nearest_worst_] = index;
+  } else {
+    return;
+  }
+  nearest_worst_ = 0;
+  for (std::size_t i = 1; i < nearest_targets_.size(); ++i) {
+    if (targets_[nearest_targets_[i]].estimate > targets_[nearest_targets_[nearest_worst_]].estimate) {
+      nearest_worst_ = i;
+    }
+  }
+  nearest_bound_ = targets_[nearest_targets_[nearest_worst_]].estimate;
 }
 
 void ExactGeodesicSolver::update_targets_in_face(std::uint32_t face) {

@@ -67,6 +67,8 @@ struct ExactGeodesicStats {
   std::size_t pseudo_source_windows = 0;  ///< of which emitted directly by a (pseudo-)source
   std::size_t windows_propagated = 0;  ///< windows popped and unfolded into the next face
   std::size_t windows_pruned = 0;      ///< windows dropped at creation or pop by vertex pruning
+  /// windows not stored because the solve stops before it would pop them (bounded solves)
+  std::size_t windows_beyond_stop = 0;
   std::size_t vertices_reached = 0;    ///< vertices whose distance is final (<= radius_reached)
   std::size_t peak_queue = 0;          ///< largest priority-queue size
   std::size_t queue_pops = 0;          ///< entries popped (windows, vertices, stale entries)
@@ -204,6 +206,15 @@ class ExactGeodesicSolver {
   void update_targets_in_face(std::uint32_t face);
   void update_targets_at_vertex(std::uint32_t vertex);
   void settle_targets_up_to(double key);
+  void track_nearest(std::uint32_t index);
+  /// A window whose key exceeds this would never be popped: the solve stops first, at the
+  /// radius, or once the targets it waits for are settled (their estimates only fall).
+  double store_limit() const {
+    const double by_targets = nearest_wanted_ > 0 && nearest_targets_.size() == nearest_wanted_
+                                  ? std::max(nearest_bound_, min_distance_)
+                                  : kInfinity;
+    return std::min(max_distance_, by_targets);
+  }
   Candidate best_in_face(std::uint32_t face, Vec2 point) const;
   /// Calls f(span) for each span listed on halfedge h (dropped windows included), until f
   /// returns false. Self is the solver, const or not, so one walk serves readers and trimming.
@@ -270,6 +281,7 @@ class ExactGeodesicSolver {
     double estimate;
     std::int32_t next;
     bool settled;
+    bool in_nearest;  ///< one of nearest_targets_
   };
   std::vector<Target> targets_;
   std::vector<std::pair<double, std::uint32_t>> target_queue_;
@@ -280,6 +292,16 @@ class ExactGeodesicSolver {
   std::vector<std::uint32_t> touched_vertices_;
 
   double radius_reached_ = kInfinity;
+  double max_distance_ = kInfinity, min_distance_ = 0;  ///< of the current solve's options
+  // Bounded solves store no window they would never pop (store_limit); the nearest key not
+  // stored caps what is final.
+  double skipped_min_key_ = kInfinity;
+  /// Targets waited for, up to this many, are tracked to bound the solve's stop.
+  static constexpr std::size_t kMaxNearestTracked = 64;
+  std::size_t nearest_wanted_ = 0;
+  std::vector<std::uint32_t> nearest_targets_;
+  std::size_t nearest_worst_ = 0;  ///< index in nearest_targets_ of the largest estimate
+  double nearest_bound_ = kInfinity;
   ExactGeodesicStats stats_;
 };
 

@@ -1399,6 +1399,7 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
   ExactGeodesicSolver full(mesh(), geometry()), bounded(mesh(), geometry());
   Rng rng(109);
   Tally tally(std::string(GetParam().name) + " bounded solve", scale());
+  std::size_t beyond_stop = 0;
   for (int k = 0; k < count(3, 2); ++k) {
     const SurfacePoint s = k == 0 ? SurfacePoint::vertex(rng.below(static_cast<std::uint32_t>(mesh().num_vertices())))
                                   : random_face_point(mesh(), rng);
@@ -1417,6 +1418,7 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
       ExactGeodesicSolver::Options opt;
       opt.max_distance = r;
       bounded.solve(one(s), {}, opt);
+      beyond_stop += bounded.stats().windows_beyond_stop;
       const std::string ctx = "from " + s.to_string() + ", R = " + fmt(r);
       if (!(bounded.radius_reached() >= r * (1 - 1e-12))) {
         tally.fail(ctx + ": radius_reached() = " + fmt(bounded.radius_reached()) + " < R");
@@ -1455,6 +1457,7 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
       }
     }
   }
+  EXPECT_GT(beyond_stop, 0u);  // windows past R are not stored (and the checks above hold)
   EXPECT_TRUE(tally.result());
 }
 
@@ -1506,6 +1509,7 @@ TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
   ExactGeodesicSolver full(mesh(), geometry()), local(mesh(), geometry());
   Rng rng(113);
   Tally tally(std::string(GetParam().name) + " K-target stop", scale());
+  std::size_t beyond_stop = 0;  // windows not stored as the solve would stop before popping them
   // Targets: random face points, edge points and vertices spread over the surface.
   std::vector<SurfacePoint> targets;
   for (int k = 0; k < 400; ++k) {
@@ -1527,6 +1531,7 @@ TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
       ExactGeodesicSolver::Options opt;
       opt.stop_after_targets = k;
       local.solve(one(s), targets, opt);
+      if (k == 36) beyond_stop += local.stats().windows_beyond_stop;
       const std::string ctx = "from " + s.to_string() + ", K = " + std::to_string(k);
       const auto& settled = local.settled_targets();
       const auto& sd = local.settled_target_distances();
@@ -1563,6 +1568,8 @@ TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
       }
     }
   }
+  // The skipping is exercised (the checks above hold with it).
+  EXPECT_GT(beyond_stop, 0u);
   EXPECT_TRUE(tally.result());
 }
 
