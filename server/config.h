@@ -67,6 +67,9 @@ struct Config {
   std::uint16_t admin_port = 7879;  ///< 0: no admin HTTP endpoint
   unsigned compute_threads = 0;     ///< 0: std::thread::hardware_concurrency()
   unsigned io_threads = 1;
+  /// Under load (4 requests per compute thread waiting), an I/O thread pauses this long (us)
+  /// between its rounds of events, so replies and reads go in batches; 0: never.
+  unsigned io_coalesce_us = 500;
   unsigned build_threads = 0;       ///< OpenMP threads of one graph build; 0: all cores
   std::filesystem::path data_dir;   ///< absolute
   std::filesystem::path graph_dir;  ///< absolute

@@ -54,6 +54,7 @@ struct Server::Impl {
   void remove(Connection* c);
   std::vector<std::shared_ptr<Connection>> connection_list();
   void write_port_file();
+  void run_io();
 
   Config config;
   ServerOptions options;
@@ -642,6 +643,26 @@ void open_acceptor(tcp::acceptor& acceptor, const tcp::endpoint& endpoint, const
 
 }  // namespace
 
+void Server::Impl::run_io() {
+  // Interrupt coalescing, as network cards do it: with requests queued for the compute threads,
+  // answering a reply or reading a request a few hundred microseconds later costs no
+  // throughput, while every wake-up of this thread is an epoll wait, a read or write and two
+  // context switches that take a core from a query (~10 us each on a VM). Pausing between
+  // rounds of events under load lets replies and requests gather: +6% closed-loop throughput
+  // on lucy with 2 compute threads. Without a backlog nothing waits.
+  const auto pause = std::chrono::microseconds(config.io_coalesce_us);
+  const std::size_t backlog = 4 * static_cast<std::size_t>(pool->threads());
+  if (pause.count() == 0) {
+    io.run();
+    return;
+  }
+  while (!io.stopped()) {
+    if (io.run_one() == 0) return;
+    io.poll();
+    if (pool->waiting() >= backlog) std::this_thread::sleep_for(pause);
+  }
+}
+
 void Server::Impl::start() {
   open_acceptor(acceptor, make_endpoint(config.bind, config.port), "the query port");
   bound_port = acceptor.local_endpoint().port();
@@ -670,7 +691,7 @@ void Server::Impl::start() {
 #endif
       for (;;) {
         try {
-          io.run();
+          run_io();
           return;
         } catch (const std::exception& e) {
           spdlog::critical("I/O handler threw (a bug): {}; continuing", e.what());
