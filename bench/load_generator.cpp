@@ -537,6 +537,12 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       out_.push_back(std::move(r.line));
       if (r.expects_reply) break;
     }
+    flush();
+  }
+
+  /// Starts writing what send_one() queued, unless a write is under way (its completion sends
+  /// the rest) or on_replies() is still gathering requests for one write.
+  void flush() {
     if (!writing_ && !handling_replies_ && !out_.empty()) write();
   }
 
@@ -613,7 +619,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     }
     handling_replies_ = false;
     if (finished_) return;
-    if (!writing_ && !out_.empty()) write();
+    flush();
     if (more) read();
   }
 

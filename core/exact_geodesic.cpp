@@ -120,7 +120,6 @@ void ExactGeodesicSolver::reset() {
   radius_reached_ = kInfinity;
   skipped_min_key_ = kInfinity;
   nearest_targets_.clear();
-  nearest_bound_ = kInfinity;
   stats_ = {};
 }
 
@@ -191,6 +190,7 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
                         : std::min(options.stop_after_targets, targets_.size());
   max_distance_ = options.max_distance;
   min_distance_ = options.min_distance;
+  store_limit_ = max_distance_;
   nearest_wanted_ = targets_wanted_ <= kMaxNearestTracked ? targets_wanted_ : 0;
 
   for (std::uint32_t i = 0; i < sources.size(); ++i) add_source(i, sources[i]);
@@ -204,20 +204,19 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
       // that is final.
       settle_targets_up_to(std::min({top.key, options.max_distance, skipped_min_key_}));
       if (settled_targets_.size() >= targets_wanted_ && top.key >= options.min_distance) {
-        radius_reached_ = std::min(top.key, skipped_min_key_);
+        radius_reached_ = top.key;
         stopped = true;
         break;
       }
     }
     if (top.key > options.max_distance) {
-      radius_reached_ = std::min(options.max_distance, skipped_min_key_);
+      radius_reached_ = options.max_distance;
       stopped = true;
       break;
     }
     if (options.max_queue_pops != 0 && stats_.queue_pops >= options.max_queue_pops &&
         top.key >= options.min_distance) {
-      // Every later entry starts at least this far out.
-      radius_reached_ = std::min(top.key, skipped_min_key_);
+      radius_reached_ = top.key;  // every later entry starts at least this far out
       stopped = true;
       break;
     }
@@ -235,10 +234,9 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
       propagate(top.item, top.key);
     }
   }
-  if (!stopped) {
-    radius_reached_ = skipped_min_key_;
-    if (!targets_.empty()) settle_targets_up_to(skipped_min_key_);
-  }
+  // Windows not stored start at skipped_min_key_ or farther: nothing from there on is final.
+  radius_reached_ = std::min(radius_reached_, skipped_min_key_);
+  if (!stopped && !targets_.empty()) settle_targets_up_to(radius_reached_);
   for (std::uint32_t v : touched_vertices_) {
     if (vertex_distance_[v] <= radius_reached_) ++stats_.vertices_reached;
   }
@@ -653,7 +651,7 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   }
   // Trimming against the edge's windows only raises the key: beyond the limit already, the
   // window would never be popped.
-  if (key > store_limit()) {
+  if (key > store_limit_) {
     skipped_min_key_ = std::min(skipped_min_key_, key);
     ++stats_.windows_beyond_stop;
     return;
@@ -850,13 +848,17 @@ void ExactGeodesicSolver::track_nearest(std::uint32_t index) {
   // estimates only fall, so one outside the set never drops below the set's largest without
   // entering it). Once full, its largest estimate bounds where the solve stops.
   Target& t = targets_[index];
+  auto worst = [&] { return targets_[nearest_targets_[nearest_worst_]].estimate; };
   if (t.in_nearest) {
-    if (index != nearest_targets_[nearest_worst_]) return;
+    // Until the set is full there is no bound (and nearest_worst_ is not maintained).
+    if (nearest_targets_.size() < nearest_wanted_ || index != nearest_targets_[nearest_worst_]) {
+      return;
+    }
   } else if (nearest_targets_.size() < nearest_wanted_) {
     t.in_nearest = true;
     nearest_targets_.push_back(index);
     if (nearest_targets_.size() < nearest_wanted_) return;
-  } else if (t.estimate < nearest_bound_) {
+  } else if (t.estimate < worst()) {
     targets_[nearest_targets_[nearest_worst_]].in_nearest = false;
     t.in_nearest = true;
     nearest_targets_[nearest_worst_] = index;
@@ -865,11 +867,10 @@ void ExactGeodesicSolver::track_nearest(std::uint32_t index) {
   }
   nearest_worst_ = 0;
   for (std::size_t i = 1; i < nearest_targets_.size(); ++i) {
-    if (targets_[nearest_targets_[i]].estimate > targets_[nearest_targets_[nearest_worst_]].estimate) {
-      nearest_worst_ = i;
-    }
+    if (targets_[nearest_targets_[i]].estimate > worst()) nearest_worst_ = i;
   }
-  nearest_bound_ = targets_[nearest_targets_[nearest_worst_]].estimate;
+  // The solve stops once the queue reaches that estimate (or min_distance, or the radius).
+  store_limit_ = std::min(max_distance_, std::max(worst(), min_distance_));
 }
 
 void ExactGeodesicSolver::update_targets_in_face(std::uint32_t face) {

@@ -207,14 +207,6 @@ class ExactGeodesicSolver {
   void update_targets_at_vertex(std::uint32_t vertex);
   void settle_targets_up_to(double key);
   void track_nearest(std::uint32_t index);
-  /// A window whose key exceeds this would never be popped: the solve stops first, at the
-  /// radius, or once the targets it waits for are settled (their estimates only fall).
-  double store_limit() const {
-    const double by_targets = nearest_wanted_ > 0 && nearest_targets_.size() == nearest_wanted_
-                                  ? std::max(nearest_bound_, min_distance_)
-                                  : kInfinity;
-    return std::min(max_distance_, by_targets);
-  }
   Candidate best_in_face(std::uint32_t face, Vec2 point) const;
   /// Calls f(span) for each span listed on halfedge h (dropped windows included), until f
   /// returns false. Self is the solver, const or not, so one walk serves readers and trimming.
@@ -293,15 +285,16 @@ class ExactGeodesicSolver {
 
   double radius_reached_ = kInfinity;
   double max_distance_ = kInfinity, min_distance_ = 0;  ///< of the current solve's options
-  // Bounded solves store no window they would never pop (store_limit); the nearest key not
-  // stored caps what is final.
+  /// A window whose key exceeds this would never be popped: the solve stops first, at the
+  /// radius, or once the targets it waits for are settled (their estimates only fall). Such
+  /// windows are not stored; the smallest key not stored caps what is final.
+  double store_limit_ = kInfinity;
   double skipped_min_key_ = kInfinity;
   /// Targets waited for, up to this many, are tracked to bound the solve's stop.
   static constexpr std::size_t kMaxNearestTracked = 64;
   std::size_t nearest_wanted_ = 0;
   std::vector<std::uint32_t> nearest_targets_;
   std::size_t nearest_worst_ = 0;  ///< index in nearest_targets_ of the largest estimate
-  double nearest_bound_ = kInfinity;
   ExactGeodesicStats stats_;
 };
 

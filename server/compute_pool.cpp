@@ -14,6 +14,14 @@
 
 namespace geoprox::server {
 
+void name_this_thread(const std::string& name) {
+#if defined(__linux__)
+  pthread_setname_np(pthread_self(), name.substr(0, 15).c_str());
+#else
+  (void)name;
+#endif
+}
+
 ComputePool::ComputePool(unsigned threads, std::size_t max_queue, Metrics* metrics)
     : max_queue_(max_queue), metrics_(metrics) {
   if (threads == 0) threads = 1;
@@ -69,13 +77,7 @@ void ComputePool::stop() {
 }
 
 void ComputePool::worker(unsigned index) {
-#if defined(__linux__)
-  // Named for top -H, perf and /proc: "gp-compute-N".
-  const std::string name = "gp-compute-" + std::to_string(index);
-  pthread_setname_np(pthread_self(), name.substr(0, 15).c_str());
-#else
-  (void)index;
-#endif
+  name_this_thread("gp-compute-" + std::to_string(index));
   for (;;) {
     Task task;
     {

@@ -10,12 +10,17 @@
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
 namespace geoprox::server {
 
 class Metrics;
+
+/// Names the calling thread as top -H, perf and /proc/PID/task/*/comm show it (gp-io-0,
+/// gp-compute-1, ...); Linux keeps the first 15 characters. No effect elsewhere.
+void name_this_thread(const std::string& name);
 
 class ComputePool {
  public:

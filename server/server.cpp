@@ -15,10 +15,6 @@
 #include <unordered_map>
 #include <vector>
 
-#if defined(__linux__)
-#include <pthread.h>
-#endif
-
 #include "protocol/framing.h"
 #include "protocol/json_rpc.h"
 #include "protocol/request.h"
@@ -686,9 +682,7 @@ void Server::Impl::start() {
   if (admin_acceptor.is_open()) do_admin_accept();
   for (unsigned i = 0; i < config.io_threads; ++i) {
     io_threads.emplace_back([this, i] {
-#if defined(__linux__)
-      pthread_setname_np(pthread_self(), ("gp-io-" + std::to_string(i)).c_str());
-#endif
+      name_this_thread("gp-io-" + std::to_string(i));
       for (;;) {
         try {
           run_io();
