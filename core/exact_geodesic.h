@@ -3,7 +3,7 @@
 // processed in order of their minimum distance (as in Mitchell, Mount & Papadimitriou 1987 and
 // Surazhsky et al. 2005) so a solve can stop early, and with windows trimmed against the
 // vertices' current distances (ICH's filters) and against the other windows on their edge
-// (MMP's pairwise trimming), on creation and again when popped. docs/exact_geodesic.md has the
+// (MMP's pairwise trimming), when they are created. docs/exact_geodesic.md has the
 // details and the robustness decisions.
 //
 // A window is an interval of a halfedge through which the straight unfolded segment from one
@@ -20,6 +20,10 @@
 #include <limits>
 #include <span>
 #include <vector>
+
+#if defined(__SSE2__)
+#include <xmmintrin.h>
+#endif
 
 #include "core/errors.h"
 #include "core/intrinsic_geometry.h"
@@ -66,7 +70,8 @@ struct ExactGeodesicStats {
   std::size_t windows_created = 0;     ///< windows stored after creation-time pruning
   std::size_t pseudo_source_windows = 0;  ///< of which emitted directly by a (pseudo-)source
   std::size_t windows_propagated = 0;  ///< windows popped and unfolded into the next face
-  std::size_t windows_pruned = 0;      ///< windows dropped at creation or pop by vertex pruning
+  /// windows dropped at creation (vertex or pairwise pruning) or cut away later by a new one
+  std::size_t windows_pruned = 0;
   /// windows not stored because the solve stops before it would pop them (bounded solves)
   std::size_t windows_beyond_stop = 0;
   std::size_t vertices_reached = 0;    ///< vertices whose distance is final (<= radius_reached)
@@ -159,15 +164,38 @@ class ExactGeodesicSolver {
   // The windows of a halfedge are listed in chunks of one cache line each, with their intervals
   // rounded outwards to float: finding the few windows that overlap a new one then reads a line
   // or two instead of one scattered Window per window on the edge. Intervals only shrink, so the
-  // rounded copies stay conservative; a dropped window's span is emptied when next met.
-  struct WindowSpan {
-    float lo, hi;
-    std::int32_t window;  // -1: free slot
-  };
+  // rounded copies stay conservative; a dropped window's span is emptied when next met. The
+  // chunk is laid out by field so that one branch-free test (overlap_mask) screens five spans
+  // (a new window on horse.ply screens about 20): 9% fewer instructions per solve there than a
+  // test and a branch per span.
   struct SpanChunk {
     static constexpr int kCapacity = 5;
-    WindowSpan spans[kCapacity];
-    std::int32_t next;  // older chunk of the same halfedge, or -1
+    float lo[kCapacity];             // free or emptied slot: +inf
+    float hi[kCapacity];             // free or emptied slot: -inf
+    std::int32_t window[kCapacity];  // -1: free slot (free slots come last)
+    std::int32_t next;               // older chunk of the same halfedge, or -1
+
+    /// Bit i set when slot i may overlap [qlo, qhi] (free and emptied slots never do).
+    unsigned overlap_mask(float qlo, float qhi) const {
+#if defined(__SSE2__)
+      // Slots 0-3 in one vector compare (the compiler keeps the loop scalar), slot 4 alone.
+      const __m128 hit = _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(lo), _mm_set1_ps(qhi)),
+                                    _mm_cmpge_ps(_mm_loadu_ps(hi), _mm_set1_ps(qlo)));
+      static_assert(kCapacity == 5);
+      return static_cast<unsigned>(_mm_movemask_ps(hit)) |
+             static_cast<unsigned>((lo[4] <= qhi) & (hi[4] >= qlo)) << 4;
+#else
+      unsigned mask = 0;
+      for (int i = 0; i < kCapacity; ++i) {
+        mask |= static_cast<unsigned>((lo[i] <= qhi) & (hi[i] >= qlo)) << i;
+      }
+      return mask;
+#endif
+    }
+    void empty_slot(int i) {
+      lo[i] = std::numeric_limits<float>::infinity();
+      hi[i] = -std::numeric_limits<float>::infinity();
+    }
   };
   static_assert(sizeof(Window) == 64 && sizeof(SpanChunk) == 64);
 
@@ -208,26 +236,17 @@ class ExactGeodesicSolver {
   void settle_targets_up_to(double key);
   void track_nearest(std::uint32_t index);
   Candidate best_in_face(std::uint32_t face, Vec2 point) const;
-  /// Calls f(span) for each span listed on halfedge h (dropped windows included), until f
-  /// returns false. Self is the solver, const or not, so one walk serves readers and trimming.
-  template <class Self, class F>
-  static void for_each_span(Self& self, std::uint32_t h, F&& f) {
-    if (self.halfedge_stamp_[h] != self.generation_) return;
-    for (std::int32_t c = self.halfedge_first_chunk_[h]; c >= 0; c = self.chunks_[c].next) {
-      for (auto& span : self.chunks_[c].spans) {
-        if (span.window < 0) break;
-        if (!f(span)) return;
-      }
-    }
-  }
   /// Calls f(index, window) for each live window on halfedge h.
   template <class F>
   void for_each_live_window(std::uint32_t h, F&& f) const {
-    for_each_span(*this, h, [&](const WindowSpan& span) {
-      const Window& w = windows_[static_cast<std::size_t>(span.window)];
-      if (w.key != kInfinity) f(span.window, w);
-      return true;
-    });
+    if (halfedge_state_[h].stamp != generation_) return;
+    for (std::int32_t c = halfedge_state_[h].first_chunk; c >= 0; c = chunks_[c].next) {
+      const SpanChunk& chunk = chunks_[c];
+      for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
+        const Window& w = windows_[static_cast<std::size_t>(chunk.window[i])];
+        if (w.key != kInfinity) f(chunk.window[i], w);
+      }
+    }
   }
   double vertex_estimate(std::uint32_t v) const {
     return vertex_distance_[v];
@@ -246,8 +265,12 @@ class ExactGeodesicSolver {
   std::vector<std::uint8_t> vertex_emitted_;     ///< pseudo-source windows already emitted
   std::vector<std::uint32_t> vertex_target_stamp_;
   std::vector<std::int32_t> vertex_first_target_;  ///< head of the vertex's target list
-  std::vector<std::uint32_t> halfedge_stamp_;
-  std::vector<std::int32_t> halfedge_first_chunk_;  ///< newest chunk of the halfedge's windows
+  /// One entry per halfedge, so that finding a halfedge's window list is one memory access.
+  struct HalfedgeState {
+    std::uint32_t stamp;       ///< generation of the solve that listed windows here
+    std::int32_t first_chunk;  ///< newest chunk of the halfedge's windows (valid if stamped)
+  };
+  std::vector<HalfedgeState> halfedge_state_;
   std::vector<std::uint32_t> face_stamp_;
   std::vector<std::int32_t> face_first_target_;   ///< head of the face's target list
   std::vector<std::int32_t> face_first_seed_;     ///< head of the face's source-seed list
