@@ -1,9 +1,9 @@
 // Exact discrete geodesics by window propagation: Xin & Wang, "Improving Chen and Han's
 // algorithm on the discrete geodesic problem", ACM TOG 28(4), 2009 (ICH), with the windows
-// processed in order of their minimum distance (as in Mitchell, Mount & Papadimitriou 1987 and
-// Surazhsky et al. 2005) so a solve can stop early, and with windows trimmed against the
-// vertices' current distances (ICH's filters) and against the other windows on their edge
-// (MMP's pairwise trimming), when they are created. docs/exact_geodesic.md has the
+// processed in order of their minimum distance, or a lower bound of it (as in Mitchell, Mount &
+// Papadimitriou 1987 and Surazhsky et al. 2005) so a solve can stop early, and with windows
+// trimmed against the vertices' current distances (ICH's filters) and against the other windows
+// on their edge (MMP's pairwise trimming) when they are created. docs/exact_geodesic.md has the
 // details and the robustness decisions.
 //
 // A window is an interval of a halfedge through which the straight unfolded segment from one
@@ -143,7 +143,8 @@ class ExactGeodesicSolver {
   struct Window {
     // 64 bytes: one cache line. The fields read while trimming come first.
     double b0, b1;     // interval along the halfedge, from its origin
-    double key;        // smallest distance over the interval; kInfinity once dropped
+    double key;        // smallest distance over the interval when created, a lower bound once
+                       // a newer window trims the interval; kInfinity once dropped
     double sx, sy;     // unfolded (pseudo-)source in the halfedge frame, sy < 0
     double sigma;      // distance already travelled to the (pseudo-)source
     std::uint32_t halfedge;
