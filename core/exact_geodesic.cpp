@@ -244,7 +244,7 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
       if (vertex_emitted_[v] || top.key != vertex_distance_[v]) continue;
       emit_pseudo_source(v);
     } else {
-      propagate(top.item, top.key);
+      propagate(top.item);
     }
   }
   // Windows not stored start at skipped_min_key_ or farther: nothing from there on is final.
@@ -604,8 +604,7 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
   const double margin = 1e-6 * L;
   const float qlo = round_down_to_float(mine.lo - margin);
   const float qhi = round_up_to_float(mine.hi + margin);
-  if (halfedge_state_[h].stamp != generation_) return true;
-  for (std::int32_t c = halfedge_state_[h].first_chunk; c >= 0 && alive; c = chunks_[c].next) {
+  for (std::int32_t c = first_chunk(h); c >= 0 && alive; c = chunks_[c].next) {
     SpanChunk& chunk = chunks_[c];
     for (unsigned mask = chunk.overlap_mask(qlo, qhi); mask != 0; mask &= mask - 1) {
       const int slot = std::countr_zero(mask);
@@ -719,9 +718,9 @@ void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t inde
   chunk.window[slot] = static_cast<std::int32_t>(index);
 }
 
-void ExactGeodesicSolver::propagate(std::uint32_t index, double popped_key) {
+void ExactGeodesicSolver::propagate(std::uint32_t index) {
   Window w = windows_[index];
-  if (w.key != popped_key) return;  // dropped since
+  if (w.key == kInfinity) return;  // dropped since it was queued (it is queued only once)
   // Not trimmed again against its corners: on horse, lucy and armadillo that changed 0.3% of
   // popped windows and cost a tenth of a solve. A window that a newer one trimmed keeps its
   // old key, a lower bound of its distance: it is propagated a little early, which keeps the
@@ -931,7 +930,7 @@ ExactGeodesicSolver::Candidate ExactGeodesicSolver::best_in_face(std::uint32_t f
   }
   for (int i = 0; i < 3; ++i) {
     const std::uint32_t h = 3 * face + static_cast<std::uint32_t>(i);
-    if (halfedge_state_[h].stamp != generation_) continue;
+    if (first_chunk(h) < 0) continue;
     const double L = g.layout(h).length;
     if (L <= 0) continue;
     const Vec2 q = face_to_halfedge_frame(g, face, i, p);

@@ -215,7 +215,7 @@ class ExactGeodesicSolver {
   double incoming_angle(std::uint32_t vertex, std::uint32_t& fan_start) const;
   void emit_into_corner(std::uint32_t vertex, std::uint32_t halfedge, double angle_begin,
                         double angle_end);
-  void propagate(std::uint32_t window_index, double popped_key);
+  void propagate(std::uint32_t window_index);
   void create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source, double sigma,
                      std::int32_t parent, std::int32_t root, std::uint32_t source_index);
   void list_window(std::uint32_t halfedge, std::uint32_t index, double b0, double b1);
@@ -237,11 +237,15 @@ class ExactGeodesicSolver {
   void settle_targets_up_to(double key);
   void track_nearest(std::uint32_t index);
   Candidate best_in_face(std::uint32_t face, Vec2 point) const;
+  /// Newest chunk of halfedge h's window list, or -1 when this solve listed none there.
+  std::int32_t first_chunk(std::uint32_t h) const {
+    const HalfedgeState& state = halfedge_state_[h];
+    return state.stamp == generation_ ? state.first_chunk : -1;
+  }
   /// Calls f(index, window) for each live window on halfedge h.
   template <class F>
   void for_each_live_window(std::uint32_t h, F&& f) const {
-    if (halfedge_state_[h].stamp != generation_) return;
-    for (std::int32_t c = halfedge_state_[h].first_chunk; c >= 0; c = chunks_[c].next) {
+    for (std::int32_t c = first_chunk(h); c >= 0; c = chunks_[c].next) {
       const SpanChunk& chunk = chunks_[c];
       for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
         const Window& w = windows_[static_cast<std::size_t>(chunk.window[i])];
