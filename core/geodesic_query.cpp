@@ -128,6 +128,7 @@ struct QueryScratch::Impl {
   GeodesicTrace trace, trace_back;
   std::vector<PathPoint> piece;
   const QueryInterrupt* interrupt = nullptr;
+  QueryScratch::RunBoth run_both;  ///< empty: one after the other
   Vec3 source_position, target_position;  ///< of the current point-to-point query
   std::uint32_t pops = 0;  ///< graph-search pops, for polling the interrupt
   /// Linking through covers: slot of sample i in the links being assembled, valid when
@@ -152,6 +153,7 @@ struct QueryScratch::Impl {
 
 QueryScratch::QueryScratch(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 void QueryScratch::set_interrupt(const QueryInterrupt* interrupt) { impl_->interrupt = interrupt; }
+void QueryScratch::set_run_both(RunBoth run_both) { impl_->run_both = std::move(run_both); }
 QueryScratch::QueryScratch(QueryScratch&&) noexcept = default;
 QueryScratch& QueryScratch::operator=(QueryScratch&&) noexcept = default;
 QueryScratch::~QueryScratch() = default;
@@ -749,8 +751,16 @@ double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolve
 // solver_t holding the solves from s / t and links_s / links_t the wide links, for paths.
 PairAnswer GeodesicQuery::answer_near(const SurfacePoint& s, const SurfacePoint& t,
                                       QueryScratch::Impl& w) const {
-  solve_near(s, w.solver_s, w.interrupt);  // afresh, as for t: the same disk either way
-  solve_near(t, w.solver_t, w.interrupt);
+  // Afresh for s, as for t (the same disk either way). The two solves are most of a near
+  // pair's time and independent: a server with an idle thread runs them at once.
+  const auto near_s = [&] { solve_near(s, w.solver_s, w.interrupt); };
+  const auto near_t = [&] { solve_near(t, w.solver_t, w.interrupt); };
+  if (w.run_both) {
+    w.run_both(near_s, near_t);
+  } else {
+    near_s();
+    near_t();
+  }
   wide_links(w.solver_s, w, w.links_s, w.wide_s);
   wide_links(w.solver_t, w, w.links_t, w.wide_t);
   std::swap(w.links_s, w.wide_s);  // paths read links_s / links_t

@@ -31,6 +31,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -107,6 +108,16 @@ class QueryScratch {
   /// searches) and throw Interrupted when it fires; nullptr (the default) never interrupts.
   /// Not owned: it must outlive the queries, or be reset first.
   void set_interrupt(const QueryInterrupt* interrupt);
+
+  /// Runs two independent parts of one query: both, possibly at the same time on another
+  /// thread, returning once both are done and rethrowing an exception of either (the first's
+  /// if both threw). Each part uses its own solver of this scratch and reads the query's
+  /// shared, read-only data only.
+  using RunBoth =
+      std::function<void(const std::function<void()>& first, const std::function<void()>& second)>;
+  /// A near pair's two exact solves (most of its time) go through `run_both`, so that a server
+  /// with an idle thread can run them at once. Empty (the default): one after the other.
+  void set_run_both(RunBoth run_both);
 
  private:
   friend class GeodesicQuery;

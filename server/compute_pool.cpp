@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
+#include <memory>
 #include <string>
 
 #if defined(__linux__)
@@ -51,9 +53,85 @@ void ComputePool::submit(Task task) {
   cv_.notify_one();
 }
 
+namespace {
+
+// The half of a run_both() call lent to the pool: whoever claims it first (a worker, or the
+// caller taking it back) runs it.
+struct LentHalf {
+  enum class State { Waiting, Running, Done, TakenBack };
+  std::mutex mutex;
+  std::condition_variable done;
+  State state = State::Waiting;
+  std::exception_ptr error;
+  const std::function<void()>* work = nullptr;  // the caller's, alive until Done or TakenBack
+};
+
+}  // namespace
+
+void ComputePool::run_both(const std::function<void()>& first,
+                           const std::function<void()>& second) {
+  std::shared_ptr<LentHalf> lent;
+  {
+    std::lock_guard lock(mutex_);
+    if (!stopping_ && idle_ > tasks_.size()) {  // a worker would start it at once
+      lent = std::make_shared<LentHalf>();
+      lent->work = &second;
+      tasks_.push_front([lent] {
+        {
+          std::lock_guard claim(lent->mutex);
+          if (lent->state != LentHalf::State::Waiting) return;  // taken back
+          lent->state = LentHalf::State::Running;
+        }
+        std::exception_ptr error;
+        try {
+          (*lent->work)();
+        } catch (...) {
+          error = std::current_exception();
+        }
+        {
+          std::lock_guard finish(lent->mutex);
+          lent->error = error;
+          lent->state = LentHalf::State::Done;
+        }
+        lent->done.notify_one();
+      });
+      if (metrics_) metrics_->queue_depth.store(static_cast<std::int64_t>(tasks_.size()));
+    }
+  }
+  if (!lent) {
+    first();
+    second();
+    return;
+  }
+  cv_.notify_one();
+  std::exception_ptr first_error;
+  try {
+    first();
+  } catch (...) {
+    first_error = std::current_exception();
+  }
+  std::unique_lock lock(lent->mutex);
+  if (lent->state == LentHalf::State::Waiting) {
+    lent->state = LentHalf::State::TakenBack;
+    lock.unlock();
+    if (first_error) std::rethrow_exception(first_error);
+    second();
+    return;
+  }
+  // A worker runs it, on the caller's objects: wait whatever `first` did.
+  lent->done.wait(lock, [&] { return lent->state == LentHalf::State::Done; });
+  if (first_error) std::rethrow_exception(first_error);
+  if (lent->error) std::rethrow_exception(lent->error);
+}
+
 std::size_t ComputePool::waiting() const {
   std::lock_guard lock(mutex_);
   return tasks_.size();
+}
+
+unsigned ComputePool::idle_threads() const {
+  std::lock_guard lock(mutex_);
+  return idle_;
 }
 
 std::int64_t ComputePool::retry_after_ms() const {
@@ -82,7 +160,9 @@ void ComputePool::worker(unsigned index) {
     Task task;
     {
       std::unique_lock lock(mutex_);
+      ++idle_;
       cv_.wait(lock, [&] { return stopping_ || !tasks_.empty(); });
+      --idle_;
       if (tasks_.empty()) return;  // stopping and drained
       task = std::move(tasks_.front());
       tasks_.pop_front();

@@ -36,7 +36,17 @@ class ComputePool {
   /// Queues `task` whatever the backlog.
   void submit(Task task);
 
+  /// Runs `first` on the calling thread and `second` on an idle worker if one is waiting for
+  /// work (else on the calling thread after `first`); returns once both are done and rethrows
+  /// the exception of `first`, else of `second`. For the two halves of one query: at low load
+  /// a near pair's two exact solves then run at once; under load nothing is lent (no worker is
+  /// idle) and nothing changes. A lent half that no worker has started yet when `first` ends is
+  /// taken back, so the caller never waits on the queue (a worker may call this too).
+  void run_both(const std::function<void()>& first, const std::function<void()>& second);
+
   std::size_t waiting() const;
+  /// Workers waiting for a task.
+  unsigned idle_threads() const;
   unsigned threads() const { return static_cast<unsigned>(threads_.size()); }
   /// A suggested retry delay for a refused task: the expected time to drain the backlog
   /// (moving average of task durations x waiting / threads), clamped to [10, 2000] ms.
@@ -54,6 +64,7 @@ class ComputePool {
   std::condition_variable cv_;
   std::deque<Task> tasks_;
   bool stopping_ = false;
+  unsigned idle_ = 0;  // workers waiting for a task
   std::vector<std::thread> threads_;
   std::atomic<std::uint64_t> mean_task_us_{1000};  // exponential moving average
 };

@@ -128,7 +128,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   Config config;
   const Reader top(document, origin);
   top.only({"bind", "port", "admin_bind", "admin_port", "compute_threads", "io_threads",
-            "io_coalesce_us", "build_threads", "data_dir", "graph_dir", "log_level", "log_json",
+            "io_coalesce_us", "split_near_pairs", "build_threads", "data_dir", "graph_dir", "log_level", "log_json",
             "admin_token", "query_token", "shutdown_timeout_ms", "not_ready_retry_after_ms",
             "limits", "meshes"});
   top.string("bind", config.bind);
@@ -139,6 +139,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   top.integer("compute_threads", config.compute_threads, 0, 1024);
   top.integer("io_threads", config.io_threads, 1, 64);
   top.integer("io_coalesce_us", config.io_coalesce_us, 0, 10000);
+  top.boolean("split_near_pairs", config.split_near_pairs);
   top.integer("build_threads", config.build_threads, 0, 1024);
   std::string data_dir = ".";
   std::string graph_dir = "var/graphs";

@@ -70,6 +70,9 @@ struct Config {
   /// Under load (4 requests per compute thread waiting), an I/O thread pauses this long (us)
   /// between its rounds of events, so replies and reads go in batches; 0: never.
   unsigned io_coalesce_us = 500;
+  /// A near pair's two exact solves (most of its time) run on two compute threads when one of
+  /// them is idle, so that at low load such a query takes about half as long.
+  bool split_near_pairs = true;
   unsigned build_threads = 0;       ///< OpenMP threads of one graph build; 0: all cores
   std::filesystem::path data_dir;   ///< absolute
   std::filesystem::path graph_dir;  ///< absolute

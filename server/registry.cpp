@@ -33,11 +33,12 @@ std::string mesh_version_of(const MappedGraphFile& file) {
 // ---- LoadedMesh ----
 
 LoadedMesh::LoadedMesh(std::shared_ptr<const MeshData> data, MappedGraphFile file,
-                       std::size_t max_scratch)
+                       std::size_t max_scratch, QueryScratch::RunBoth run_both)
     : data_(std::move(data)),
       file_(std::move(file)),
       version_(mesh_version_of(file_)),
-      max_scratch_(max_scratch == 0 ? 1 : max_scratch) {
+      max_scratch_(max_scratch == 0 ? 1 : max_scratch),
+      run_both_(std::move(run_both)) {
   query_ = std::make_unique<GeodesicQuery>(data_->mesh, data_->geometry, file_.view());
 }
 
@@ -85,6 +86,7 @@ LoadedMesh::Lease LoadedMesh::lease() const {
       try {
         auto slot = std::make_unique<ScratchSlot>(
             ScratchSlot{query_->make_scratch(), nullptr, nullptr, nullptr});
+        slot->scratch.set_run_both(run_both_);
         return Lease(this, std::move(slot));
       } catch (...) {
         std::lock_guard relock(pool_mutex_);
@@ -327,7 +329,8 @@ void Registry::run_job(const Job& job) {
         MappedGraphFile file = MappedGraphFile::open(entry->graph_path().string());
         file.verify_mesh(data->mesh, data->geometry);
         auto loaded =
-            std::make_shared<const LoadedMesh>(data, std::move(file), options_.max_scratch_per_mesh);
+            std::make_shared<const LoadedMesh>(data, std::move(file), options_.max_scratch_per_mesh,
+                                             options_.run_both);
         const double ms =
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                 .count();
@@ -380,7 +383,8 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
   MappedGraphFile file = MappedGraphFile::open(entry->graph_path().string());
   file.verify_mesh(data->mesh, data->geometry);
   auto loaded =
-      std::make_shared<const LoadedMesh>(data, std::move(file), options_.max_scratch_per_mesh);
+      std::make_shared<const LoadedMesh>(data, std::move(file), options_.max_scratch_per_mesh,
+                                             options_.run_both);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("mesh {}: graph built and written to {} in {:.2f} s (version {}, {} samples)",
@@ -650,7 +654,8 @@ std::vector<protocol::ReloadOutcome> Registry::reload(const std::optional<std::s
         continue;
       }
       auto fresh = std::make_shared<const LoadedMesh>(current->data_ptr(), std::move(file),
-                                                      options_.max_scratch_per_mesh);
+                                                      options_.max_scratch_per_mesh,
+                                                      options_.run_both);
       const std::string version = fresh->version();
       {
         std::lock_guard lock(entry->mutex_);

@@ -62,8 +62,10 @@ struct ScratchSlot {
 class LoadedMesh {
  public:
   /// Builds the GeodesicQuery over `file` (which must match `data`; the caller verified it).
-  /// `max_scratch` bounds the pool (the number of compute threads).
-  LoadedMesh(std::shared_ptr<const MeshData> data, MappedGraphFile file, std::size_t max_scratch);
+  /// `max_scratch` bounds the pool (the number of compute threads); every scratch runs the two
+  /// halves of a query through `run_both` (QueryScratch::set_run_both).
+  LoadedMesh(std::shared_ptr<const MeshData> data, MappedGraphFile file, std::size_t max_scratch,
+             QueryScratch::RunBoth run_both = {});
   ~LoadedMesh();
   LoadedMesh(const LoadedMesh&) = delete;
   LoadedMesh& operator=(const LoadedMesh&) = delete;
@@ -105,6 +107,7 @@ class LoadedMesh {
   std::unique_ptr<GeodesicQuery> query_;
   std::string version_;
   std::size_t max_scratch_;
+  QueryScratch::RunBoth run_both_;
   mutable std::mutex pool_mutex_;
   mutable std::condition_variable pool_cv_;
   mutable std::vector<std::unique_ptr<ScratchSlot>> free_;
@@ -166,6 +169,8 @@ struct RegistryOptions {
   std::filesystem::path graph_dir;
   std::size_t max_scratch_per_mesh = 1;  ///< the number of compute threads
   int build_threads = 0;                 ///< OpenMP threads per build (0: all)
+  /// Given to every query scratch (QueryScratch::set_run_both); empty: one after the other.
+  QueryScratch::RunBoth run_both;
 };
 
 /// Called after each successful swap or failed load (for logs and metrics); may be empty.

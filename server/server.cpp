@@ -606,9 +606,15 @@ Server::Impl::Impl(Config c, ServerOptions o)
   registry_options.graph_dir = config.graph_dir;
   registry_options.max_scratch_per_mesh = threads;
   registry_options.build_threads = static_cast<int>(config.build_threads);
+  pool = std::make_unique<ComputePool>(threads, config.server_limits.max_queue, &metrics);
+  if (config.split_near_pairs) {
+    registry_options.run_both = [p = pool.get()](const std::function<void()>& first,
+                                                 const std::function<void()>& second) {
+      p->run_both(first, second);
+    };
+  }
   registry = std::make_unique<Registry>(registry_options);
   service = std::make_unique<Service>(config, *registry, metrics, state);
-  pool = std::make_unique<ComputePool>(threads, config.server_limits.max_queue, &metrics);
 }
 
 Server::Impl::~Impl() {

@@ -445,6 +445,8 @@ TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {
   EXPECT_EQ(config.meshes[0].mesh_path, source_dir() / "data/meshes/spot.obj");
   EXPECT_EQ(config.meshes[1].id, "dragon");
   EXPECT_EQ(config.meshes[1].graph_path, source_dir() / "var/graphs/dragon.geoprox");
+  EXPECT_TRUE(config.split_near_pairs);
+  EXPECT_FALSE(parse_config(json{{"split_near_pairs", false}}, "/tmp").split_near_pairs);
 
   auto refused = [&](const json& d) -> std::string {
     try {
@@ -461,6 +463,7 @@ TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {
   EXPECT_NE(refused({{"port", "7878"}}).find("port"), std::string::npos);
   EXPECT_NE(refused({{"port", 70000}}).find("port"), std::string::npos);
   EXPECT_NE(refused({{"log_level", "loud"}}).find("log_level"), std::string::npos);
+  EXPECT_NE(refused({{"split_near_pairs", 1}}).find("split_near_pairs"), std::string::npos);
   EXPECT_NE(refused({{"meshes", {{{"id", "../x"}, {"mesh", "a.obj"}}}}}).find("id"),
             std::string::npos);
   EXPECT_NE(refused({{"meshes", {{{"id", "a"}, {"mesh", "a.obj"}}, {{"id", "a"}, {"mesh", "b.obj"}}}}})

@@ -68,6 +68,49 @@ TEST_F(MethodsTest, DistanceEqualsInProcessForEveryPointKind) {
                    r.query.distance(s, snapped.point, r.scratch).distance);
 }
 
+TEST_F(MethodsTest, NearPairsEqualInProcessWithTheirSolvesSplitAcrossThreads) {
+  // Pairs 1.5 to 3 link radii apart are near pairs (refined through two exact disks). The
+  // server (2 compute threads, one request at a time) runs the second disk on its idle thread;
+  // the answers must be those of one thread, to the last bit.
+  Client c(server_->port());
+  Reference& r = *reference_;
+  const double rho = r.query.link_radius();
+  ExactGeodesicSolver solver(r.mesh, r.geometry);
+  ExactGeodesicOptions options;
+  options.max_distance = 3 * rho;
+  std::size_t pairs = 0, near_solves = 0;
+  r.scratch.set_run_both([&](const std::function<void()>& first,
+                             const std::function<void()>& second) {
+    ++near_solves;  // in-process: one after the other
+    first();
+    second();
+  });
+  for (std::uint32_t source = 0; source < r.mesh.num_vertices(); source += 97) {
+    solver.solve(SurfacePoint::vertex(source), options);
+    std::uint32_t target = UINT32_MAX;
+    for (const std::uint32_t v : solver.touched_vertices()) {
+      const double d = solver.distance(v);
+      if (d >= 1.5 * rho && d <= 3 * rho) target = v;
+    }
+    if (target == UINT32_MAX) continue;
+    const SurfacePoint s = SurfacePoint::vertex(source), t = SurfacePoint::vertex(target);
+    const std::string sw = "v:" + std::to_string(source), tw = "v:" + std::to_string(target);
+    const DistanceResult expected = r.query.distance(s, t, r.scratch);
+    const json result =
+        c.result("geodesic.distance", {{"mesh", "spot"}, {"source", sw}, {"target", tw}});
+    EXPECT_DOUBLE_EQ(result["distance"].get<double>(), expected.distance) << sw << " " << tw;
+    const PathResult path = r.query.path(s, t, r.scratch);
+    const json wire_path =
+        c.result("geodesic.path", {{"mesh", "spot"}, {"source", sw}, {"target", tw}});
+    EXPECT_DOUBLE_EQ(wire_path["distance"].get<double>(), path.distance) << sw << " " << tw;
+    EXPECT_EQ(wire_path["points"].size(), path.points.size()) << sw << " " << tw;
+    ++pairs;
+  }
+  r.scratch.set_run_both({});
+  EXPECT_GE(pairs, 20u);
+  EXPECT_GE(near_solves, pairs);  // the near-pair route ran (for the distance and the path)
+}
+
 TEST_F(MethodsTest, ExactDistanceEqualsTheExactSolver) {
   Client c(server_->port());
   const json result = c.result(
