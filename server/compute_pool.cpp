@@ -76,12 +76,13 @@ void ComputePool::run_both(const std::function<void()>& first,
     if (!stopping_ && idle_ > tasks_.size()) {  // a worker would start it at once
       lent = std::make_shared<LentHalf>();
       lent->work = &second;
-      tasks_.push_front([lent] {
+      tasks_.push_front([lent, metrics = metrics_] {
         {
           std::lock_guard claim(lent->mutex);
           if (lent->state != LentHalf::State::Waiting) return;  // taken back
           lent->state = LentHalf::State::Running;
         }
+        if (metrics) metrics->split_halves.fetch_add(1, std::memory_order_relaxed);
         std::exception_ptr error;
         try {
           (*lent->work)();

@@ -140,6 +140,10 @@ void Metrics::render(std::string& out) const {
         load(reloads_ok));
   gauge(out, "geoprox_reload_failures_total", "Graph reloads refused (the old graph stayed).",
         "counter", load(reloads_failed));
+  gauge(out, "geoprox_split_halves_total",
+        "Second halves of queries (a near pair's second exact solve) run by an idle compute "
+        "thread.",
+        "counter", load(split_halves));
 }
 
 }  // namespace geoprox::server

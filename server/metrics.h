@@ -47,6 +47,8 @@ class Metrics {
   std::atomic<std::uint64_t> bytes_written{0};
   std::atomic<std::uint64_t> reloads_ok{0};
   std::atomic<std::uint64_t> reloads_failed{0};
+  /// Second halves of queries (a near pair's second exact solve) run by another compute thread.
+  std::atomic<std::uint64_t> split_halves{0};
 
  private:
   static constexpr std::size_t kBucketCount = kBuckets.size() + 1;

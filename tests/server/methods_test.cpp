@@ -109,6 +109,8 @@ TEST_F(MethodsTest, NearPairsEqualInProcessWithTheirSolvesSplitAcrossThreads) {
   r.scratch.set_run_both({});
   EXPECT_GE(pairs, 20u);
   EXPECT_GE(near_solves, pairs);  // the near-pair route ran (for the distance and the path)
+  // ... and the server ran second halves on its idle compute thread.
+  EXPECT_GT(server_->server->metrics().split_halves.load(), 0u);
 }
 
 TEST_F(MethodsTest, ExactDistanceEqualsTheExactSolver) {
