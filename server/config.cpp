@@ -128,9 +128,9 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   Config config;
   const Reader top(document, origin);
   top.only({"bind", "port", "admin_bind", "admin_port", "compute_threads", "io_threads",
-            "io_coalesce_us", "split_near_pairs", "build_threads", "data_dir", "graph_dir", "log_level", "log_json",
-            "admin_token", "query_token", "shutdown_timeout_ms", "not_ready_retry_after_ms",
-            "limits", "meshes"});
+            "io_coalesce_us", "split_near_pairs", "build_threads", "data_dir", "graph_dir",
+            "log_level", "log_json", "admin_token", "query_token", "shutdown_timeout_ms",
+            "not_ready_retry_after_ms", "limits", "meshes"});
   top.string("bind", config.bind);
   config.admin_bind = config.bind;
   top.string("admin_bind", config.admin_bind);
