@@ -9,6 +9,7 @@
 #include <csignal>
 #include <deque>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -608,10 +609,7 @@ Server::Impl::Impl(Config c, ServerOptions o)
   registry_options.build_threads = static_cast<int>(config.build_threads);
   pool = std::make_unique<ComputePool>(threads, config.server_limits.max_queue, &metrics);
   if (config.split_near_pairs) {
-    registry_options.run_both = [p = pool.get()](const std::function<void()>& first,
-                                                 const std::function<void()>& second) {
-      p->run_both(first, second);
-    };
+    registry_options.run_both = std::bind_front(&ComputePool::run_both, pool.get());
   }
   registry = std::make_unique<Registry>(registry_options);
   service = std::make_unique<Service>(config, *registry, metrics, state);

@@ -71,7 +71,7 @@ TEST_F(MethodsTest, DistanceEqualsInProcessForEveryPointKind) {
 TEST_F(MethodsTest, NearPairsEqualInProcessWithTheirSolvesSplitAcrossThreads) {
   // Pairs 1.5 to 3 link radii apart are near pairs (refined through two exact disks). The
   // server (2 compute threads, one request at a time) runs the second disk on its idle thread;
-  // the answers must be those of one thread, to the last bit.
+  // the answers must be those of one thread (the same solves: equal to a few ulps at most).
   Client c(server_->port());
   Reference& r = *reference_;
   const double rho = r.query.link_radius();
