@@ -365,11 +365,12 @@ void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
   const std::uint32_t source_index = vertex_source_[v];
   const IntrinsicGeometry& g = *geometry_;
   for (std::uint32_t h : mesh_->outgoing_halfedges(v)) {
-    const std::uint32_t prev = TriangleMesh::prev(h);
-    relax_vertex(mesh_->target(h), d + g.layout(h).length, -1, static_cast<std::int32_t>(v),
+    // h = v -> a in face (v, a, b): the neighbours a and b.
+    const HalfedgeCrossing& crossing = g.crossing(h);
+    const auto via = static_cast<std::int32_t>(v);
+    relax_vertex(crossing.target, d + crossing.layout.length, -1, via, source_index);
+    relax_vertex(crossing.opposite, d + g.layout(TriangleMesh::prev(h)).length, -1, via,
                  source_index);
-    relax_vertex(mesh_->origin(prev), d + g.layout(prev).length, -1,
-                 static_cast<std::int32_t>(v), source_index);
   }
 
   // A shortest path bends at a saddle only into its shadow: the directions at least pi away
@@ -400,7 +401,7 @@ void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
       if (lo <= hi) emit_into_corner(v, h, lo - phi, hi - phi);
     }
     phi += corner;
-    const std::int32_t t = mesh_->twin(TriangleMesh::prev(h));
+    const std::int32_t t = g.crossing(h).twin_prev;  // the next outgoing halfedge of v
     GEOPROX_ASSERT(t >= 0, "interior vertex fan is open");
     h = static_cast<std::uint32_t>(t);
   } while (h != fan_start);
@@ -411,10 +412,10 @@ void ExactGeodesicSolver::emit_into_corner(std::uint32_t v, std::uint32_t h, dou
   // Face of h = v -> a, with third corner b; the window goes on the far side of edge a -> b,
   // covering the rays from v at angles [angle_begin, angle_end] from v -> a towards v -> b.
   const IntrinsicGeometry& g = *geometry_;
-  const std::uint32_t opposite = TriangleMesh::next(h);  // a -> b
-  const std::int32_t t = mesh_->twin(opposite);
+  const std::int32_t t = g.crossing(h).twin_next;  // across a -> b
   if (t < 0) return;
-  const HalfedgeLayout& lay = g.layout(opposite);  // a = (0,0), b = (L,0), v = (cx, cy)
+  // In the frame of a -> b: a = (0,0), b = (L,0), v = (cx, cy).
+  const HalfedgeLayout& lay = g.layout(TriangleMesh::next(h));
   const double L = lay.length;
   if (L <= 0) return;
   double x0 = 0, x1 = L;
@@ -436,18 +437,16 @@ void ExactGeodesicSolver::emit_into_corner(std::uint32_t v, std::uint32_t h, dou
 }
 
 bool ExactGeodesicSolver::trim_window(Window& w, double& key) const {
-  const std::uint32_t h = w.halfedge;
-  const HalfedgeLayout& lay = geometry_->layout(h);
+  const HalfedgeCrossing& crossing = geometry_->crossing(w.halfedge);
+  const HalfedgeLayout& lay = crossing.layout;
   const double L = lay.length;
   const double scale = w.sigma + std::abs(w.sx) + std::abs(w.sy) + L;
   const double slack = kPruneSlack * scale;
-  const Triangle& corners = mesh_->face(TriangleMesh::face_of(h));
-  const int k = static_cast<int>(h % 3);
   // The distances at the interval's ends, recomputed only when an end moves.
   double d0 = w.distance_at(w.b0), d1 = w.distance_at(w.b1);
 
   // Through vertex a (x = 0): D(x) - x is non-increasing, so a dominates a prefix [b0, x*].
-  const double da = vertex_estimate(corners[k]);
+  const double da = vertex_estimate(crossing.origin);
   if (da < kInfinity) {
     if (d1 - w.b1 > da + slack) return false;
     if (d0 - w.b0 > da + slack) {
@@ -461,7 +460,7 @@ bool ExactGeodesicSolver::trim_window(Window& w, double& key) const {
     }
   }
   // Through vertex b (x = L): D(x) - (L - x) is non-decreasing: b dominates a suffix.
-  const double db = vertex_estimate(corners[(k + 1) % 3]);
+  const double db = vertex_estimate(crossing.target);
   if (db < kInfinity) {
     if (d0 - (L - w.b0) > db + slack) return false;
     if (d1 - (L - w.b1) > db + slack) {
@@ -476,7 +475,7 @@ bool ExactGeodesicSolver::trim_window(Window& w, double& key) const {
   }
   if (w.b1 < w.b0) return false;
   // Through the opposite vertex c of the face the window enters.
-  const double dc = vertex_estimate(corners[(k + 2) % 3]);
+  const double dc = vertex_estimate(crossing.opposite);
   if (dc < kInfinity) {
     const double c0 = length2(lay.cx - w.b0, lay.cy);
     const double c1 = length2(lay.cx - w.b1, lay.cy);
@@ -729,9 +728,16 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   ++stats_.windows_propagated;
   windows_[index].propagated = 1;
 
-  const IntrinsicGeometry& g = *geometry_;
-  const std::uint32_t h = w.halfedge;
-  const HalfedgeLayout& lay = g.layout(h);
+  const HalfedgeCrossing& crossing = geometry_->crossing(w.halfedge);
+  // The children land in the neighbouring faces, rarely near this one in memory: start
+  // loading what creating them reads while this face's vertices are relaxed.
+  for (const std::int32_t t : {crossing.twin_prev, crossing.twin_next}) {
+    if (t >= 0) {
+      __builtin_prefetch(&geometry_->crossing(static_cast<std::uint32_t>(t)));
+      __builtin_prefetch(&halfedge_state_[static_cast<std::uint32_t>(t)]);
+    }
+  }
+  const HalfedgeLayout& lay = crossing.layout;
   const double L = lay.length, cx = lay.cx, cy = lay.cy;
   const double sx = w.sx, sy = w.sy;
   const auto self = static_cast<std::int32_t>(index);
@@ -740,29 +746,29 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   // The window may reach its own end vertices.
   // (Through the interval's end and along the edge, so that the value is a real path.)
   if (w.b0 <= end_slack) {
-    relax_vertex(mesh_->origin(h), w.distance_at(w.b0) + w.b0, self, kViaNone, w.source_index);
+    relax_vertex(crossing.origin, w.distance_at(w.b0) + w.b0, self, kViaNone, w.source_index);
   }
   if (w.b1 >= L - end_slack) {
-    relax_vertex(mesh_->target(h), w.distance_at(w.b1) + (L - w.b1), self, kViaNone,
+    relax_vertex(crossing.target, w.distance_at(w.b1) + (L - w.b1), self, kViaNone,
                  w.source_index);
   }
 
   if (!(cy - sy > 0)) {
     // Source on the line of a zero-area face: only its far corner is reached, straight along
     // the line; the neighbours continue from the face's corners (pseudo-sources).
-    relax_vertex(mesh_->opposite_vertex(h), w.sigma + length2(cx - sx, cy - sy), self, kViaNone,
+    relax_vertex(crossing.opposite, w.sigma + length2(cx - sx, cy - sy), self, kViaNone,
                  w.source_index);
     return;
   }
   // Where the ray from S through the opposite corner c crosses the edge line.
   const double xc = w.crossing_x(cx, cy);
   if (xc >= w.b0 - end_slack && xc <= w.b1 + end_slack) {
-    relax_vertex(mesh_->opposite_vertex(h), through_window(w, xc, cx, cy), self, kViaNone,
+    relax_vertex(crossing.opposite, through_window(w, xc, cx, cy), self, kViaNone,
                  w.source_index);
   }
 
   // Parameter along segment P0 -> P1 where the ray from S through (x, 0) crosses it.
-  auto crossing = [&](double x, double p0x, double p0y, double p1x, double p1y) {
+  auto exit_parameter = [&](double x, double p0x, double p0y, double p1x, double p1y) {
     const double dx = x - sx, dy = -sy;
     const double den = cross2(dx, dy, p1x - p0x, p1y - p0y);
     if (den == 0) return x <= xc ? 0.0 : 1.0;
@@ -775,12 +781,11 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   const double left_end = std::min(w.b1, xc), right_begin = std::max(w.b0, xc);
   // Left child: edge a -> c, entered through twin(prev(h)).
   if (w.b0 < left_end) {
-    const std::uint32_t edge_h = TriangleMesh::prev(h);
-    const std::int32_t t = mesh_->twin(edge_h);
-    const double lc = g.layout(edge_h).length;
+    const std::int32_t t = crossing.twin_prev;
+    const double lc = geometry_->layout(TriangleMesh::prev(w.halfedge)).length;
     if (t >= 0 && lc > 0) {
-      const double t0 = crossing(w.b0, 0, 0, cx, cy);
-      const double t1 = left_end >= xc ? 1.0 : crossing(left_end, 0, 0, cx, cy);
+      const double t0 = exit_parameter(w.b0, 0, 0, cx, cy);
+      const double t1 = left_end >= xc ? 1.0 : exit_parameter(left_end, 0, 0, cx, cy);
       // Unit vector along a -> c; its length is that edge's length.
       const double ex = cx / lc, ey = cy / lc;
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
@@ -790,12 +795,11 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   }
   // Right child: edge c -> b, entered through twin(next(h)).
   if (w.b1 > right_begin) {
-    const std::uint32_t edge_h = TriangleMesh::next(h);
-    const std::int32_t t = mesh_->twin(edge_h);
-    const double lc = g.layout(edge_h).length;
+    const std::int32_t t = crossing.twin_next;
+    const double lc = geometry_->layout(TriangleMesh::next(w.halfedge)).length;
     if (t >= 0 && lc > 0) {
-      const double t0 = right_begin <= xc ? 0.0 : crossing(right_begin, cx, cy, L, 0);
-      const double t1 = crossing(w.b1, cx, cy, L, 0);
+      const double t0 = right_begin <= xc ? 0.0 : exit_parameter(right_begin, cx, cy, L, 0);
+      const double t1 = exit_parameter(w.b1, cx, cy, L, 0);
       const double ex = (L - cx) / lc, ey = -cy / lc;  // unit vector along c -> b
       const double rx = sx - cx, ry = sy - cy;
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,

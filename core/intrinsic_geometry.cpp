@@ -64,7 +64,7 @@ IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, std::vector<doubl
 void IntrinsicGeometry::build(const Options& options) {
   const TriangleMesh& mesh = *mesh_;
   const std::size_t nh = mesh.num_halfedges();
-  layout_.resize(nh);
+  crossing_.assign(nh, HalfedgeCrossing{});
   face_area_.assign(mesh.num_faces(), 0);
   angle_sum_.assign(mesh.num_vertices(), 0);
   corner_angle_.assign(nh, 0);
@@ -80,7 +80,13 @@ void IntrinsicGeometry::build(const Options& options) {
     const double ab = edge_length_[mesh.edge_of(h)];
     const double bc = edge_length_[mesh.edge_of(TriangleMesh::next(h))];
     const double ca = edge_length_[mesh.edge_of(TriangleMesh::prev(h))];
-    HalfedgeLayout& lay = layout_[h];
+    HalfedgeCrossing& crossing = crossing_[h];
+    crossing.origin = mesh.origin(h);
+    crossing.target = mesh.target(h);
+    crossing.opposite = mesh.opposite_vertex(h);
+    crossing.twin_prev = mesh.twin(TriangleMesh::prev(h));
+    crossing.twin_next = mesh.twin(TriangleMesh::next(h));
+    HalfedgeLayout& lay = crossing.layout;
     lay.length = ab;
     if (ab > 0) {
       // Height from the area (Kahan's stable Heron) rather than sqrt(ca^2 - cx^2), which
@@ -122,14 +128,14 @@ void IntrinsicGeometry::build(const Options& options) {
 }
 
 Vec2 IntrinsicGeometry::face_corner(std::uint32_t f, int corner) const {
-  const HalfedgeLayout& lay = layout_[3 * f];
+  const HalfedgeLayout& lay = layout(3 * f);
   if (corner == 0) return {0, 0};
   if (corner == 1) return {lay.length, 0};
   return {lay.cx, lay.cy};
 }
 
 Vec2 IntrinsicGeometry::face_point(std::uint32_t f, const double bary[3]) const {
-  const HalfedgeLayout& lay = layout_[3 * f];
+  const HalfedgeLayout& lay = layout(3 * f);
   return {bary[1] * lay.length + bary[2] * lay.cx, bary[2] * lay.cy};
 }
 

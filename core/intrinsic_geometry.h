@@ -20,6 +20,22 @@ struct HalfedgeLayout {
   double cy = 0;      ///< >= 0; 0 for a degenerate (zero-area) face
 };
 
+/// What an exact solver reads to carry a window across the face of halfedge h = a->b (face
+/// (a, b, c)), in 48 bytes: h's layout, the face's corners, and the halfedges a window leaves
+/// into. Solves wait on memory more than on arithmetic; with these gathered, crossing a face
+/// reads about one line instead of three (layout, twin and face arrays): 26% fewer simulated L1
+/// misses, 3-5% faster bounded solves. A 64-byte record that also held the other two edges'
+/// lengths (found next to h's layout anyway) was no faster.
+struct alignas(16) HalfedgeCrossing {
+  HalfedgeLayout layout;
+  std::uint32_t origin = 0, target = 0, opposite = 0;  ///< a, b, c
+  /// twin(prev(h)): the halfedge a window leaving through edge c-a enters; -1 on a boundary.
+  std::int32_t twin_prev = -1;
+  /// twin(next(h)): the halfedge a window leaving through edge b-c enters; -1 on a boundary.
+  std::int32_t twin_next = -1;
+};
+static_assert(sizeof(HalfedgeCrossing) == 48);
+
 struct Vec2 {
   double x = 0, y = 0;
 };
@@ -49,7 +65,8 @@ class IntrinsicGeometry {
   const TriangleMesh& mesh() const { return *mesh_; }
   double edge_length(std::uint32_t e) const { return edge_length_[e]; }
   const std::vector<double>& edge_lengths() const { return edge_length_; }
-  const HalfedgeLayout& layout(std::uint32_t h) const { return layout_[h]; }
+  const HalfedgeLayout& layout(std::uint32_t h) const { return crossing_[h].layout; }
+  const HalfedgeCrossing& crossing(std::uint32_t h) const { return crossing_[h]; }
   double angle_sum(std::uint32_t v) const { return angle_sum_[v]; }
   /// Interior angle of h's face at h's origin (radians).
   double corner_angle(std::uint32_t h) const { return corner_angle_[h]; }
@@ -73,7 +90,7 @@ class IntrinsicGeometry {
 
   const TriangleMesh* mesh_;
   std::vector<double> edge_length_;
-  std::vector<HalfedgeLayout> layout_;
+  std::vector<HalfedgeCrossing> crossing_;  ///< per halfedge, with its layout
   std::vector<double> angle_sum_;
   std::vector<double> corner_angle_;
   std::vector<double> face_area_;
