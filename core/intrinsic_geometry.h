@@ -24,7 +24,7 @@ struct HalfedgeLayout {
 /// (a, b, c)), in 48 bytes: h's layout, the face's corners, and the halfedges a window leaves
 /// into. Solves wait on memory more than on arithmetic; with these gathered, crossing a face
 /// reads about one line instead of three (layout, twin and face arrays): 26% fewer simulated L1
-/// misses, 3-5% faster bounded solves. A 64-byte record that also held the other two edges'
+/// misses, about 3% faster bounded solves. A 64-byte record that also held the other two edges'
 /// lengths (found next to h's layout anyway) was no faster.
 struct alignas(16) HalfedgeCrossing {
   HalfedgeLayout layout;
