@@ -337,8 +337,9 @@ double ExactGeodesicSolver::incoming_angle(std::uint32_t v, std::uint32_t& fan_s
     angle_in_corner = 0;
   } else if (via_window >= 0) {
     const Window& w = windows_[static_cast<std::size_t>(via_window)];
-    if (mesh_->opposite_vertex(w.halfedge) != v) return kUnknown;
-    const HalfedgeLayout& lay = g.layout(w.halfedge);
+    const HalfedgeCrossing& crossing = g.crossing(w.halfedge);
+    if (crossing.opposite != v) return kUnknown;
+    const HalfedgeLayout& lay = crossing.layout;
     corner_halfedge = TriangleMesh::prev(w.halfedge);  // c -> a
     const double ax = -lay.cx, ay = -lay.cy, qx = w.sx - lay.cx, qy = w.sy - lay.cy;
     angle_in_corner = std::atan2(cross2(ax, ay, qx, qy), ax * qx + ay * qy);

@@ -65,7 +65,7 @@ TEST(IntrinsicGeometry, CrossingRecordsMarkBoundaryEdgesWithoutATwin) {
   options.ny = 4;
   const TestMesh grid = test_meshes::make_test_mesh(test_meshes::flat_grid(options));
   expect_records_match_mesh(*grid.mesh, *grid.geometry);
-  // A 5 x 4 grid has 18 boundary edges; each is prev(h) or next(h) of exactly one halfedge.
+  // A 5 x 4 grid has 18 boundary edges; each is prev(h) of exactly one halfedge h.
   int open = 0;
   for (std::uint32_t h = 0; h < grid.mesh->num_halfedges(); ++h) {
     open += grid.geometry->crossing(h).twin_prev < 0;
