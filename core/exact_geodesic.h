@@ -202,7 +202,8 @@ class ExactGeodesicSolver {
 
   struct QueueEntry {
     double key;
-    std::uint32_t item;  // window index, or kVertexItem | vertex
+    std::uint32_t item;      // window index, or kVertexItem | vertex
+    std::uint32_t halfedge;  // a window's halfedge (in what was padding): prefetched with it
   };
   struct Candidate;
 
@@ -228,7 +229,7 @@ class ExactGeodesicSolver {
   FaceDirection into_corner(std::uint32_t vertex, FaceDirection direction) const;
   void relax_vertex(std::uint32_t vertex, double distance, std::int32_t via_window,
                     std::int32_t via_vertex, std::uint32_t source_index);
-  void push(double key, std::uint32_t item);
+  void push(double key, std::uint32_t item, std::uint32_t halfedge = 0);
   void pop();
   void add_target(std::uint32_t index, const SurfacePoint& point);
   void improve_target(std::uint32_t index, double estimate);
