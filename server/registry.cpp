@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -76,16 +77,23 @@ LoadedMesh::Lease LoadedMesh::lease() const {
   std::unique_lock lock(pool_mutex_);
   for (;;) {
     if (!free_.empty()) {
+      // This thread's own slot if it is free (few slots: one per compute thread), else the
+      // one released last.
+      const std::thread::id me = std::this_thread::get_id();
+      auto own = std::find_if(free_.begin(), free_.end(),
+                              [&](const auto& slot) { return slot->last_thread == me; });
+      if (own != free_.end()) std::iter_swap(own, free_.end() - 1);
       auto slot = std::move(free_.back());
       free_.pop_back();
+      slot->last_thread = me;
       return Lease(this, std::move(slot));
     }
     if (created_ < max_scratch_) {
       ++created_;
       lock.unlock();
       try {
-        auto slot = std::make_unique<ScratchSlot>(
-            ScratchSlot{query_->make_scratch(), nullptr, nullptr, nullptr});
+        auto slot = std::make_unique<ScratchSlot>(ScratchSlot{
+            query_->make_scratch(), nullptr, nullptr, nullptr, std::this_thread::get_id()});
         slot->scratch.set_run_both(run_both_);
         return Lease(this, std::move(slot));
       } catch (...) {

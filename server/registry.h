@@ -24,6 +24,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <thread>
 #include <string>
 #include <thread>
 #include <vector>
@@ -57,6 +58,9 @@ struct ScratchSlot {
   std::unique_ptr<ExactGeodesicSolver> exact;
   std::unique_ptr<ExponentialMap> expmap;
   std::unique_ptr<GeodesicSpline> spline;
+  /// The thread that leased it last: lease() gives a thread back its own slot when free, whose
+  /// buffers are still in that core's cache.
+  std::thread::id last_thread;
 };
 
 class LoadedMesh {
