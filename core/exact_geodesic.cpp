@@ -618,10 +618,8 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
     SpanChunk& chunk = chunks_[c];
     for (unsigned mask = chunk.overlap_mask(qlo, qhi); mask != 0; mask &= mask - 1) {
       const int slot = std::countr_zero(mask);
-      // Pieces can only be cut inside the overlap: a sliver shared by two windows that reach
-      // beyond it (end points from different parents agree only to rounding) is left. Judged
-      // on the listed span, which contains the window's interval, before the window itself is
-      // loaded (a cache miss, and nearly half the pairs on horse.ply are such slivers).
+      // A sliver overlap (see kSliverOverlap) is judged on the listed span, which contains the
+      // window's interval, before the window itself is loaded (a cache miss).
       const double span_lo = chunk.lo[slot], span_hi = chunk.hi[slot];
       if (std::min(mine.hi, span_hi) - std::max(mine.lo, span_lo) < kSliverOverlap * L &&
           (mine.lo < span_lo || mine.hi > span_hi) && (span_lo < mine.lo || span_hi > mine.hi)) {
