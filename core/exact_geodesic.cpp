@@ -27,6 +27,7 @@ constexpr double kVisibilitySlack = 1e-6;
 // 46% of the pairs compared, and under 1% of those comparisons changed anything.
 constexpr double kSliverOverlap = 1e-5;
 constexpr std::uint32_t kVertexItem = 0x80000000u;
+constexpr std::uint32_t kHalfedgeItem = 0x40000000u;
 // vertex_via_vertex_ codes besides a neighbour id.
 constexpr std::int32_t kViaNone = -1;
 constexpr std::int32_t kViaSourceVertex = -2;
@@ -209,6 +210,14 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   max_distance_ = options.max_distance;
   min_distance_ = options.min_distance;
   store_limit_ = max_distance_;
+  // Halfedges collect several waiting windows only when the wavefront is wide (4.7 per batch
+  // in a full solve on horse.ply, 1.7 in a local one): local solves keep one queue entry per
+  // window, whose branches are predictable (batching made near pairs' solves 5-9% slower).
+  batch_halfedges_ = targets.empty() && max_distance_ == kInfinity && options.max_queue_pops == 0;
+  // Sized at the first full solve: the daemon's query solvers never make one.
+  if (batch_halfedges_ && halfedge_queued_key_.empty()) {
+    halfedge_queued_key_.assign(halfedge_state_.size(), kInfinity);
+  }
   nearest_wanted_ = targets_wanted_ <= kMaxNearestTracked ? targets_wanted_ : 0;
 
   for (std::uint32_t i = 0; i < sources.size(); ++i) add_source(i, sources[i]);
@@ -244,13 +253,20 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
     // record (the queue entry names the halfedge, so this does not wait for the window),
     // while this entry is processed. About 5% of a solve on lucy and horse.
     if (!queue_.empty() && !(queue_.top().item & kVertexItem)) {
-      __builtin_prefetch(&windows_[queue_.top().item]);
-      __builtin_prefetch(&geometry_->crossing(queue_.top().halfedge));
+      const QueueEntry& next = queue_.top();
+      __builtin_prefetch(&windows_[next.item & ~kHalfedgeItem]);
+      __builtin_prefetch(&geometry_->crossing(next.halfedge));
+      if (next.item & kHalfedgeItem) {
+        __builtin_prefetch(&halfedge_state_[next.halfedge]);
+        __builtin_prefetch(&halfedge_queued_key_[next.halfedge]);
+      }
     }
     if (top.item & kVertexItem) {
       const std::uint32_t v = top.item & ~kVertexItem;
       if (vertex_emitted_[v] || top.key != vertex_distance_[v]) continue;
       emit_pseudo_source(v);
+    } else if (top.item & kHalfedgeItem) {
+      propagate_halfedge(top.halfedge, top.key);
     } else {
       propagate(top.item);
     }
@@ -625,7 +641,7 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
           (mine.lo < span_lo || mine.hi > span_hi) && (span_lo < mine.lo || span_hi > mine.hi)) {
         continue;
       }
-      Window& o = windows_[static_cast<std::size_t>(chunk.window[slot])];
+      Window& o = windows_[static_cast<std::size_t>(chunk.window[slot] & kListedIndex)];
       if (o.key == kInfinity) {  // dropped since it was listed
         chunk.empty_slot(slot);
         continue;
@@ -695,11 +711,19 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   // The key trim_window computed holds unless the other windows cut the interval further.
   w.key = w.b0 == b0_trimmed && w.b1 == b1_trimmed ? key : window_key(w);
   const auto index = static_cast<std::uint32_t>(windows_.size());
+  GEOPROX_ASSERT(index <= static_cast<std::uint32_t>(kListedIndex), "window index overflow");
   windows_.push_back(w);
   list_window(halfedge, index, w.b0, w.b1);
   ++stats_.windows_created;
   if (parent < 0) ++stats_.pseudo_source_windows;
-  push(w.key, index, halfedge);
+  if (!batch_halfedges_) {
+    push(w.key, index, halfedge);
+  } else if (double& queued = halfedge_queued_key_[halfedge]; w.key < queued) {
+    // One entry per halfedge, keyed by its nearest waiting window: a nearer newcomer queues
+    // the halfedge again and the older entry becomes stale.
+    queued = w.key;
+    push(w.key, kHalfedgeItem | index, halfedge);
+  }
   if (!targets_.empty()) update_targets_in_face(TriangleMesh::face_of(halfedge));
 }
 
@@ -709,6 +733,7 @@ void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t inde
   if (state.stamp != generation_) {
     state.stamp = generation_;
     state.first_chunk = -1;
+    if (batch_halfedges_) halfedge_queued_key_[halfedge] = kInfinity;
   }
   std::int32_t head = state.first_chunk;
   int slot = SpanChunk::kCapacity;
@@ -733,6 +758,38 @@ void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t inde
   chunk.lo[slot] = round_down_to_float(b0);
   chunk.hi[slot] = round_up_to_float(b1);
   chunk.window[slot] = static_cast<std::int32_t>(index);
+}
+
+void ExactGeodesicSolver::propagate_halfedge(std::uint32_t h, double key) {
+  if (halfedge_queued_key_[h] != key) return;  // stale: a nearer window queued h again
+  halfedge_queued_key_[h] = kInfinity;
+  // Every window waiting on the halfedge goes now, not only the nearest (the key), as VTP
+  // organises its propagation (Qin et al. 2016): the others are no nearer than the key, so
+  // the queue stays monotone and whatever is reported final still is, while the face's
+  // records, the children's window lists and the corners' estimates are read once for all of
+  // them, and the queue holds a fifth as many entries. Their children land on the other two
+  // halfedges of the face, never on this one. The waiting windows were stored long ago: all
+  // of them start loading before the first is propagated.
+  const std::int32_t first = halfedge_state_[h].first_chunk;
+  for (std::int32_t c = first; c >= 0; c = chunks_[c].next) {
+    const SpanChunk& chunk = chunks_[c];
+    for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
+      if (!(chunk.window[i] & kListedTaken)) __builtin_prefetch(&windows_[chunk.window[i]]);
+    }
+  }
+  for (std::int32_t c = first; c >= 0; c = chunks_[c].next) {
+    SpanChunk& chunk = chunks_[c];
+    for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
+      if (chunk.window[i] & kListedTaken) continue;
+      const auto index = static_cast<std::uint32_t>(chunk.window[i]);
+      chunk.window[i] |= kListedTaken;
+      if (windows_[index].key == kInfinity) {
+        chunk.empty_slot(i);
+        continue;
+      }
+      propagate(index);
+    }
+  }
 }
 
 void ExactGeodesicSolver::propagate(std::uint32_t index) {

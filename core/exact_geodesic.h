@@ -171,6 +171,7 @@ class ExactGeodesicSolver {
   // test and a branch per span.
   struct SpanChunk {
     static constexpr int kCapacity = 5;
+    // window[i] is the window's index, with kListedTaken set once a halfedge batch took it.
     float lo[kCapacity];             // free or emptied slot: +inf
     float hi[kCapacity];             // free or emptied slot: -inf
     std::int32_t window[kCapacity];  // -1: free slot (free slots come last)
@@ -199,10 +200,16 @@ class ExactGeodesicSolver {
     }
   };
   static_assert(sizeof(Window) == 64 && sizeof(SpanChunk) == 64);
+  /// Set in a chunk's window entry once propagate_halfedge took that window, so that the next
+  /// batch of the halfedge reads its chunks and none of the windows already done.
+  static constexpr std::int32_t kListedTaken = 1 << 30;
+  static constexpr std::int32_t kListedIndex = kListedTaken - 1;
 
   struct QueueEntry {
     double key;
-    std::uint32_t item;      // window index, or kVertexItem | vertex
+    /// A window's index; kHalfedgeItem | the index of the window that queued its halfedge (full
+    /// solves: see propagate_halfedge); or kVertexItem | a vertex.
+    std::uint32_t item;
     std::uint32_t halfedge;  // a window's halfedge (in what was padding): prefetched with it
   };
   struct Candidate;
@@ -216,6 +223,7 @@ class ExactGeodesicSolver {
   double incoming_angle(std::uint32_t vertex, std::uint32_t& fan_start) const;
   void emit_into_corner(std::uint32_t vertex, std::uint32_t halfedge, double angle_begin,
                         double angle_end);
+  void propagate_halfedge(std::uint32_t halfedge, double key);
   void propagate(std::uint32_t window_index);
   void create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source, double sigma,
                      std::int32_t parent, std::int32_t root, std::uint32_t source_index);
@@ -249,8 +257,9 @@ class ExactGeodesicSolver {
     for (std::int32_t c = first_chunk(h); c >= 0; c = chunks_[c].next) {
       const SpanChunk& chunk = chunks_[c];
       for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
-        const Window& w = windows_[static_cast<std::size_t>(chunk.window[i])];
-        if (w.key != kInfinity) f(chunk.window[i], w);
+        const std::int32_t index = chunk.window[i] & kListedIndex;
+        const Window& w = windows_[static_cast<std::size_t>(index)];
+        if (w.key != kInfinity) f(index, w);
       }
     }
   }
@@ -277,6 +286,13 @@ class ExactGeodesicSolver {
     std::int32_t first_chunk;  ///< newest chunk of the halfedge's windows (valid if stamped)
   };
   std::vector<HalfedgeState> halfedge_state_;
+  /// Full solves (batch_halfedges_): the key of the queue entry that will propagate the
+  /// halfedge's waiting windows, kInfinity when none waits (valid if the state is stamped).
+  /// Apart from HalfedgeState, which local solves read, so that theirs stays 8 bytes; empty
+  /// until the first full solve.
+  std::vector<double> halfedge_queued_key_;
+  /// This solve queues halfedges rather than windows (see propagate_halfedge).
+  bool batch_halfedges_ = false;
   std::vector<std::uint32_t> face_stamp_;
   std::vector<std::int32_t> face_first_target_;   ///< head of the face's target list
   std::vector<std::int32_t> face_first_seed_;     ///< head of the face's source-seed list

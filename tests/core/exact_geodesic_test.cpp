@@ -1461,6 +1461,40 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
   EXPECT_TRUE(tally.result());
 }
 
+TEST_P(ExactGeodesicRealMesh, HalfedgeQueueMatchesWindowQueue) {
+  // A full solve queues halfedges (all windows waiting on one go together); a solve with a
+  // radius queues single windows. With a radius beyond the farthest point both cover the whole
+  // mesh in different orders and must agree everywhere: every vertex and random surface points.
+  ExactGeodesicSolver full(mesh(), geometry()), windowed(mesh(), geometry());
+  Rng rng(223);
+  Tally tally(std::string(GetParam().name) + " halfedge vs window queue", scale());
+  for (int k = 0; k < count(3, 2); ++k) {
+    const SurfacePoint s = random_face_point(mesh(), rng);
+    full.solve(s);
+    ExactGeodesicSolver::Options opt;
+    opt.max_distance = 1e3 * scale();
+    windowed.solve(s, opt);
+    const std::string ctx = "from " + s.to_string();
+    // The same windows up to the order of creation: within a percent of each other.
+    const double created = static_cast<double>(full.stats().windows_created);
+    if (std::abs(created - static_cast<double>(windowed.stats().windows_created)) > 0.01 * created) {
+      tally.fail(ctx + ": " + std::to_string(full.stats().windows_created) + " windows against " +
+                 std::to_string(windowed.stats().windows_created));
+    }
+    if (!(full.stats().queue_pops < windowed.stats().queue_pops)) {
+      tally.fail(ctx + ": the halfedge queue popped no fewer entries");
+    }
+    for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
+      tally.check(full.distance(v), windowed.distance(v), ctx + ", vertex " + std::to_string(v));
+    }
+    for (int j = 0; j < 50; ++j) {
+      const SurfacePoint t = random_face_point(mesh(), rng);
+      tally.check(full.distance(t), windowed.distance(t), ctx + ", to " + t.to_string());
+    }
+  }
+  EXPECT_TRUE(tally.result());
+}
+
 TEST_P(ExactGeodesicRealMesh, WorkBudgetStopsPastMinDistanceWithFinalDistances) {
   // max_queue_pops: the solve stops once the budget is spent and min_distance is reached;
   // every vertex within radius_reached() has its full-solve distance, none beyond has one.
