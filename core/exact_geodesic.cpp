@@ -210,9 +210,10 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   max_distance_ = options.max_distance;
   min_distance_ = options.min_distance;
   store_limit_ = max_distance_;
-  // Halfedges collect several waiting windows only when the wavefront is wide (4.7 per batch
-  // in a full solve on horse.ply, 1.7 in a local one): local solves keep one queue entry per
-  // window, whose branches are predictable (batching made near pairs' solves 5-9% slower).
+  // Halfedges collect many waiting windows only when the wavefront is wide (a full solve on
+  // horse.ply: 19 per batch, 4.7 per pop counting stale entries; a local one: 1.7 per pop).
+  // Local solves keep one queue entry per window, whose branches are predictable (batching
+  // made near pairs' solves 5-9% slower).
   batch_halfedges_ = targets.empty() && max_distance_ == kInfinity && options.max_queue_pops == 0;
   // Sized at the first full solve: the daemon's query solvers never make one.
   if (batch_halfedges_ && halfedge_queued_key_.empty()) {
