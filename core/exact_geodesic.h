@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <limits>
 #include <span>
+#include <utility>
 #include <vector>
 
 #if defined(__SSE2__)
@@ -293,6 +294,7 @@ class ExactGeodesicSolver {
   std::vector<double> halfedge_queued_key_;
   /// This solve queues halfedges rather than windows (see propagate_halfedge).
   bool batch_halfedges_ = false;
+  std::vector<std::pair<double, std::uint32_t>> batch_;  ///< propagate_halfedge's (key, window)
   std::vector<std::uint32_t> face_stamp_;
   std::vector<std::int32_t> face_first_target_;   ///< head of the face's target list
   std::vector<std::int32_t> face_first_seed_;     ///< head of the face's source-seed list
