@@ -771,7 +771,7 @@ void ExactGeodesicSolver::propagate_halfedge(std::uint32_t h, double key) {
   // them, and the queue holds a fifth as many entries. Their children land on the other two
   // halfedges of the face, never on this one. The waiting windows were stored long ago: all
   // of them start loading before the first is propagated.
-  const std::int32_t first = halfedge_state_[h].first_chunk;
+  const std::int32_t first = first_chunk(h);
   for (std::int32_t c = first; c >= 0; c = chunks_[c].next) {
     const SpanChunk& chunk = chunks_[c];
     for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
@@ -795,7 +795,7 @@ void ExactGeodesicSolver::propagate_halfedge(std::uint32_t h, double key) {
     }
   }
   std::sort(batch_.begin(), batch_.end());
-  for (const auto& [window_key, index] : batch_) propagate(index);
+  for (const auto& entry : batch_) propagate(entry.second);
 }
 
 void ExactGeodesicSolver::propagate(std::uint32_t index) {
