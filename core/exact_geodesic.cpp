@@ -150,6 +150,16 @@ void ExactGeodesicSolver::touch_face(std::uint32_t f) {
   }
 }
 
+void ExactGeodesicSolver::HalfedgeEntryPlacement::operator()(const QueueEntry& entry,
+                                                             std::uint32_t bucket,
+                                                             std::uint32_t index) const {
+  if (entry.item & kHalfedgeItem) {
+    QueuedHalfedge& q = queued[entry.halfedge];
+    q.bucket = bucket;
+    q.index = index;
+  }
+}
+
 void ExactGeodesicSolver::push(double key, std::uint32_t item, std::uint32_t halfedge) {
   queue_.push(QueueEntry{key, item, halfedge});
   stats_.peak_queue = std::max(stats_.peak_queue, queue_.size());
@@ -211,14 +221,15 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   min_distance_ = options.min_distance;
   store_limit_ = max_distance_;
   // Halfedges collect many waiting windows only when the wavefront is wide (a full solve on
-  // horse.ply: 19 per batch, 4.7 per pop counting stale entries; a local one: 1.7 per pop).
+  // horse.ply: 19 per batch; a local one: 1.7 per pop).
   // Local solves keep one queue entry per window, whose branches are predictable (batching
   // made near pairs' solves 5-9% slower).
   batch_halfedges_ = targets.empty() && max_distance_ == kInfinity && options.max_queue_pops == 0;
   // Sized at the first full solve: the daemon's query solvers never make one.
-  if (batch_halfedges_ && halfedge_queued_key_.empty()) {
-    halfedge_queued_key_.assign(halfedge_state_.size(), kInfinity);
+  if (batch_halfedges_ && halfedge_queued_.empty()) {
+    halfedge_queued_.assign(halfedge_state_.size(), QueuedHalfedge{kInfinity, 0, 0});
   }
+  queue_.placed().queued = halfedge_queued_.data();
   nearest_wanted_ = targets_wanted_ <= kMaxNearestTracked ? targets_wanted_ : 0;
 
   for (std::uint32_t i = 0; i < sources.size(); ++i) add_source(i, sources[i]);
@@ -259,7 +270,7 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
       __builtin_prefetch(&geometry_->crossing(next.halfedge));
       if (next.item & kHalfedgeItem) {
         __builtin_prefetch(&halfedge_state_[next.halfedge]);
-        __builtin_prefetch(&halfedge_queued_key_[next.halfedge]);
+        __builtin_prefetch(&halfedge_queued_[next.halfedge]);
       }
     }
     if (top.item & kVertexItem) {
@@ -719,11 +730,17 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   if (parent < 0) ++stats_.pseudo_source_windows;
   if (!batch_halfedges_) {
     push(w.key, index, halfedge);
-  } else if (double& queued = halfedge_queued_key_[halfedge]; w.key < queued) {
-    // One entry per halfedge, keyed by its nearest waiting window: a nearer newcomer queues
-    // the halfedge again and the older entry becomes stale.
-    queued = w.key;
+  } else if (QueuedHalfedge& queued = halfedge_queued_[halfedge]; queued.key == kInfinity) {
+    // One entry per halfedge, keyed by its nearest waiting window.
+    queued.key = w.key;
     push(w.key, kHalfedgeItem | index, halfedge);
+  } else if (w.key < queued.key) {
+    // A nearer newcomer lowers the entry's key in place. Pushing a new entry instead left
+    // 1.25M stale ones in a horse solve (8 per batch: newcomers are mostly nearer than the
+    // waiting windows by under 1% of the edge), each costing as much as a useful pop.
+    queued.key = w.key;
+    queue_.decrease(queued.bucket, queued.index,
+                    QueueEntry{w.key, kHalfedgeItem | index, halfedge});
   }
   if (!targets_.empty()) update_targets_in_face(TriangleMesh::face_of(halfedge));
 }
@@ -734,7 +751,7 @@ void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t inde
   if (state.stamp != generation_) {
     state.stamp = generation_;
     state.first_chunk = -1;
-    if (batch_halfedges_) halfedge_queued_key_[halfedge] = kInfinity;
+    if (batch_halfedges_) halfedge_queued_[halfedge].key = kInfinity;
   }
   std::int32_t head = state.first_chunk;
   int slot = SpanChunk::kCapacity;
@@ -762,8 +779,8 @@ void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t inde
 }
 
 void ExactGeodesicSolver::propagate_halfedge(std::uint32_t h, double key) {
-  if (halfedge_queued_key_[h] != key) return;  // stale: a nearer window queued h again
-  halfedge_queued_key_[h] = kInfinity;
+  GEOPROX_ASSERT(halfedge_queued_[h].key == key, "a halfedge's queue entry is out of date");
+  halfedge_queued_[h].key = kInfinity;
   // Every window waiting on the halfedge goes now, not only the nearest (the key), as VTP
   // organises its propagation (Qin et al. 2016): the others are no nearer than the key, so
   // the queue stays monotone and whatever is reported final still is, while the face's

@@ -287,11 +287,16 @@ class ExactGeodesicSolver {
     std::int32_t first_chunk;  ///< newest chunk of the halfedge's windows (valid if stamped)
   };
   std::vector<HalfedgeState> halfedge_state_;
-  /// Full solves (batch_halfedges_): the key of the queue entry that will propagate the
-  /// halfedge's waiting windows, kInfinity when none waits (valid if the state is stamped).
+  /// Full solves (batch_halfedges_): the queue entry that will propagate the halfedge's
+  /// waiting windows: its key (kInfinity when none waits; valid if the state is stamped) and
+  /// where the queue holds it, so that a nearer newcomer lowers that entry's key in place.
+  struct QueuedHalfedge {
+    double key;
+    std::uint32_t bucket, index;  ///< the entry's position in queue_
+  };
   /// Apart from HalfedgeState, which local solves read, so that theirs stays 8 bytes; empty
   /// until the first full solve.
-  std::vector<double> halfedge_queued_key_;
+  std::vector<QueuedHalfedge> halfedge_queued_;
   /// This solve queues halfedges rather than windows (see propagate_halfedge).
   bool batch_halfedges_ = false;
   std::vector<std::pair<double, std::uint32_t>> batch_;  ///< propagate_halfedge's (key, window)
@@ -301,7 +306,12 @@ class ExactGeodesicSolver {
 
   SegmentedArray<Window> windows_;
   SegmentedArray<SpanChunk> chunks_;
-  RadixHeap<QueueEntry> queue_;
+  /// Keeps halfedge_queued_'s positions current as the queue moves halfedge entries.
+  struct HalfedgeEntryPlacement {
+    QueuedHalfedge* queued = nullptr;  ///< halfedge_queued_.data(), set by every full solve
+    void operator()(const QueueEntry& entry, std::uint32_t bucket, std::uint32_t index) const;
+  };
+  RadixHeap<QueueEntry, HalfedgeEntryPlacement> queue_;
 
   struct Seed {
     std::uint32_t face;

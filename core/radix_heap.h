@@ -15,6 +15,13 @@
 // ordered as if its key were that last key (it comes out next) but keeps its own key, which
 // callers compare against their records to detect stale entries. Buckets are vectors reused
 // across clear(), so a reused heap does not allocate.
+//
+// Decrease-key: a caller that wants to lower an entry's key in place (instead of pushing a
+// new entry and skipping the stale one later) passes a `Placed` callback, told the bucket and
+// index of every entry the heap stores or moves (push, refill, decrease); decrease() then
+// takes that position. An entry's bucket depends only on its key and the last key popped, and
+// the buckets other than the one refilled keep their place, so a position stays valid until
+// the callback reports a new one.
 #pragma once
 
 #include <algorithm>
@@ -26,10 +33,20 @@
 
 namespace geoprox {
 
-/// Entry: any trivially copyable type with a `double key` >= 0 (not NaN).
-template <class Entry>
+/// The default placement callback: positions not tracked.
+struct UntrackedPlacement {
+  template <class Entry>
+  void operator()(const Entry&, std::uint32_t /*bucket*/, std::uint32_t /*index*/) const {}
+};
+
+/// Entry: any trivially copyable type with a `double key` >= 0 (not NaN). Placed: called as
+/// placed(entry, bucket, index) wherever the heap stores an entry (see decrease()).
+template <class Entry, class Placed = UntrackedPlacement>
 class RadixHeap {
  public:
+  /// The placement callback (a caller may point it at its own records before pushing).
+  Placed& placed() { return placed_; }
+
   bool empty() const { return size_ == 0; }
   std::size_t size() const { return size_; }
 
@@ -45,10 +62,27 @@ class RadixHeap {
   }
 
   void push(const Entry& entry) {
-    const std::size_t b = bucket_of(order_bits(entry.key));
-    buckets_[b].push_back(entry);
-    nonempty_[b / 64] |= std::uint64_t{1} << (b % 64);
+    place(bucket_of(order_bits(entry.key)), entry);
     ++size_;
+  }
+
+  /// Replaces the entry last placed at (bucket, index) by `entry`, whose key must be no larger
+  /// than the replaced one's: the heap keeps its size, and placed() hears where `entry` went
+  /// (nothing when it stays in place) and where the entry that filled its slot went.
+  void decrease(std::uint32_t bucket, std::uint32_t index, const Entry& entry) {
+    const std::size_t b = bucket_of(order_bits(entry.key));
+    std::vector<Entry>& from = buckets_[bucket];
+    if (b == bucket) {  // the same bucket: order within a bucket does not matter
+      from[index] = entry;
+      return;
+    }
+    if (index + 1 != from.size()) {
+      from[index] = from.back();
+      placed_(from[index], bucket, index);
+    }
+    from.pop_back();
+    if (from.empty()) nonempty_[bucket / 64] &= ~(std::uint64_t{1} << (bucket % 64));
+    place(b, entry);
   }
 
   /// The entry with the smallest key; the heap must not be empty.
@@ -98,18 +132,21 @@ class RadixHeap {
     for (const Entry& e : from) smallest = std::min(smallest, order_bits(e.key));
     last_ = smallest;
     nonempty_[word] &= ~(std::uint64_t{1} << (i % 64));
-    for (const Entry& e : from) {
-      const std::size_t b = bucket_of(order_bits(e.key));
-      buckets_[b].push_back(e);
-      nonempty_[b / 64] |= std::uint64_t{1} << (b % 64);
-    }
+    for (const Entry& e : from) place(bucket_of(order_bits(e.key)), e);
     from.clear();
+  }
+  void place(std::size_t b, const Entry& entry) {
+    std::vector<Entry>& to = buckets_[b];
+    placed_(entry, static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(to.size()));
+    to.push_back(entry);
+    nonempty_[b / 64] |= std::uint64_t{1} << (b % 64);
   }
 
   std::array<std::vector<Entry>, kBuckets> buckets_;
   std::array<std::uint64_t, kMaskWords> nonempty_{};  // bit b: bucket b holds entries
   std::uint64_t last_ = 0;  // bit pattern of the last key popped (or 0)
   std::size_t size_ = 0;
+  [[no_unique_address]] Placed placed_;
 };
 
 }  // namespace geoprox

@@ -1,5 +1,6 @@
 // RadixHeap: pops in key order under the monotone use the exact solver makes of it, including
-// keys a few ulps below the last one popped, and stays valid across clear().
+// keys a few ulps below the last one popped, stays valid across clear(), and lowers the keys of
+// tracked entries in place.
 #include "core/radix_heap.h"
 
 #include <gtest/gtest.h>
@@ -91,6 +92,74 @@ TEST(RadixHeap, MatchesASortedReferenceUnderMonotonePushes) {
       ASSERT_EQ(heap.size(), reference.size());
     }
     for (std::uint32_t item = 0; item < next_item; ++item) {
+      EXPECT_EQ(popped_count[item], 1) << "entry " << item;
+    }
+  }
+}
+
+// decrease(): the placement callback keeps every entry's position; random entries have their
+// keys lowered (never below the last key popped, sometimes within their own bucket, sometimes
+// into a lower one) between pops and pushes. Every entry comes out exactly once, with its
+// latest key, and always the smallest one in the heap.
+struct Tracked {
+  double key;
+  std::uint32_t item;
+};
+struct TrackedPositions {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>>* at = nullptr;
+  void operator()(const Tracked& e, std::uint32_t bucket, std::uint32_t index) const {
+    (*at)[e.item] = {bucket, index};
+  }
+};
+
+TEST(RadixHeap, DecreaseLowersKeysInPlace) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::uniform_int_distribution<int> coin(0, 9);
+  RadixHeap<Tracked, TrackedPositions> heap;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> at;
+  heap.placed().at = &at;
+  for (int round = 0; round < 3; ++round) {
+    heap.clear();
+    at.clear();
+    std::vector<double> key;         // latest key of every item
+    std::vector<std::uint32_t> live;  // items in the heap
+    std::vector<int> popped_count;
+    double last = 0;
+    auto push = [&](double k) {
+      const auto item = static_cast<std::uint32_t>(key.size());
+      key.push_back(k);
+      popped_count.push_back(0);
+      at.emplace_back();
+      live.push_back(item);
+      heap.push({k, item});
+    };
+    for (int i = 0; i < 40; ++i) push(10 * unit(rng));
+    std::size_t decreases = 0;
+    while (!heap.empty()) {
+      for (int j = 0; j < 3 && !live.empty(); ++j) {
+        const std::uint32_t item = live[rng() % live.size()];
+        // Near the old key (mostly the same bucket) or anywhere down to the last key popped.
+        const double lowered = coin(rng) < 5 ? key[item] - (key[item] - last) * 1e-6 * unit(rng)
+                                             : last + (key[item] - last) * unit(rng);
+        key[item] = lowered;
+        heap.decrease(at[item].first, at[item].second, {lowered, item});
+        ++decreases;
+      }
+      ASSERT_EQ(heap.size(), live.size());
+      const Tracked top = heap.top();
+      double smallest = std::numeric_limits<double>::infinity();
+      for (std::uint32_t item : live) smallest = std::min(smallest, key[item]);
+      ASSERT_EQ(top.key, smallest) << "round " << round;
+      ASSERT_EQ(top.key, key[top.item]);
+      ASSERT_EQ(popped_count[top.item]++, 0) << "entry " << top.item << " popped twice";
+      heap.pop();
+      std::erase(live, top.item);
+      last = top.key;
+      for (int k = 0; k < 2 && coin(rng) < 6 && key.size() < 3000; ++k) push(last + 10 * unit(rng));
+    }
+    EXPECT_GT(decreases, 1000u);
+    for (std::uint32_t item = 0; item < key.size(); ++item) {
       EXPECT_EQ(popped_count[item], 1) << "entry " << item;
     }
   }
