@@ -31,6 +31,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/errors.h"
+
 namespace geoprox {
 
 /// The default placement callback: positions not tracked.
@@ -70,6 +72,9 @@ class RadixHeap {
   /// than the replaced one's: the heap keeps its size, and placed() hears where `entry` went
   /// (nothing when it stays in place) and where the entry that filled its slot went.
   void decrease(std::uint32_t bucket, std::uint32_t index, const Entry& entry) {
+    GEOPROX_ASSERT(bucket < kBuckets && index < buckets_[bucket].size() &&
+                       order_bits(entry.key) <= order_bits(buckets_[bucket][index].key),
+                   "decrease() needs the entry's current position and a key no larger");
     const std::size_t b = bucket_of(order_bits(entry.key));
     std::vector<Entry>& from = buckets_[bucket];
     if (b == bucket) {  // the same bucket: order within a bucket does not matter

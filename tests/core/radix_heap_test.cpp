@@ -12,6 +12,8 @@
 #include <random>
 #include <vector>
 
+#include "core/errors.h"
+
 namespace geoprox {
 namespace {
 
@@ -159,6 +161,17 @@ TEST(RadixHeap, DecreaseLowersKeysInPlace) {
       for (int k = 0; k < 2 && coin(rng) < 6 && key.size() < 3000; ++k) push(last + 10 * unit(rng));
     }
     EXPECT_GT(decreases, 1000u);
+    // Misuse is an internal error, not a corrupted heap: a larger key, a position out of range.
+    const auto extra = static_cast<std::uint32_t>(key.size());
+    key.push_back(last + 5);
+    at.emplace_back();
+    popped_count.push_back(1);
+    heap.push({last + 5, extra});
+    const auto [bucket, index] = at[extra];
+    EXPECT_THROW(heap.decrease(bucket, index, {last + 6, extra}), InternalError);
+    EXPECT_THROW(heap.decrease(bucket, index + 1, {last + 4, extra}), InternalError);
+    EXPECT_EQ(heap.top().key, last + 5);
+    heap.pop();
     for (std::uint32_t item = 0; item < key.size(); ++item) {
       EXPECT_EQ(popped_count[item], 1) << "entry " << item;
     }
