@@ -5,21 +5,26 @@
 //
 // A window-propagation solve pops keys in non-decreasing order (a child window is never nearer
 // than its parent), so a radix heap applies: an entry sits in the bucket of the highest 4-bit
-// digit in which its key differs from the last key popped, and of its value in that digit; push
-// is an append, and a refill moves the smallest bucket's entries at least one digit down. With
-// one bucket per bit (base 2), the keys of a solve's wavefront (continuous doubles) made every
-// entry move about log2(queue size) ~ 17 times, a quarter of a solve's instructions; base 16
-// moves each one ~4 times. Against the 4-ary heap (core/quaternary_heap.h) base 2 already made
+// digit in which its key differs from last_ (the last key popped, or about to be), and of its
+// value in that digit; push is an append, and a refill moves the smallest bucket's entries at
+// least one digit down. With one bucket per bit (base 2), the keys of a solve's wavefront
+// (continuous doubles) made every entry move about log2(queue size) ~ 17 times, a quarter of a
+// solve's instructions; base 16 moves each one ~4 times. Against the 4-ary heap (core/quaternary_heap.h) base 2 already made
 // a full exact solve on horse.ply about 7% faster.
-// Rounding can make a new key a few ulps smaller than the last one popped: such an entry is
-// ordered as if its key were that last key (it comes out next) but keeps its own key, which
-// callers compare against their records to detect stale entries. Buckets are vectors reused
-// across clear(), so a reused heap does not allocate.
+//
+// last_ is the smallest key of the last refill, which top() may run before the entry it shows
+// is popped: a caller that looks ahead (the solver prefetches the next entry while it
+// processes the current one) then pushes keys between the key it popped and last_, and
+// rounding can make a new key a few ulps smaller than the last one popped. Such keys go to
+// bucket 0 with the keys equal to last_, which is kept sorted (it holds few entries), so
+// entries come out in key order: never after a larger one, unless pushed below the key last
+// popped (rounding), and then next. Buckets are vectors reused across clear(), so a reused heap does not
+// allocate.
 //
 // Decrease-key: a caller that wants to lower an entry's key in place (instead of pushing a
 // new entry and skipping the stale one later) passes a `Placed` callback, told the bucket and
 // index of every entry the heap stores or moves (push, refill, decrease); decrease() then
-// takes that position. An entry's bucket depends only on its key and the last key popped, and
+// takes that position. An entry's bucket depends only on its key and last_, and
 // the buckets other than the one refilled keep their place, so a position stays valid until
 // the callback reports a new one.
 #pragma once
@@ -73,15 +78,20 @@ class RadixHeap {
   /// (nothing when it stays in place) and where the entry that filled its slot went.
   void decrease(std::uint32_t bucket, std::uint32_t index, const Entry& entry) {
     GEOPROX_ASSERT(bucket < kBuckets && index < buckets_[bucket].size() &&
-                       order_bits(entry.key) <= order_bits(buckets_[bucket][index].key),
+                       entry.key + 0.0 <= buckets_[bucket][index].key + 0.0,
                    "decrease() needs the entry's current position and a key no larger");
     const std::size_t b = bucket_of(order_bits(entry.key));
     std::vector<Entry>& from = buckets_[bucket];
-    if (b == bucket) {  // the same bucket: order within a bucket does not matter
+    if (b == bucket && b != 0) {  // the same bucket: order within it does not matter
       from[index] = entry;
       return;
     }
-    if (index + 1 != from.size()) {
+    if (bucket == 0) {  // keep bucket 0 sorted: close the gap
+      for (std::size_t i = index; i + 1 < from.size(); ++i) {
+        from[i] = from[i + 1];
+        placed_(from[i], 0, static_cast<std::uint32_t>(i));
+      }
+    } else if (index + 1 != from.size()) {
       from[index] = from.back();
       placed_(from[index], bucket, index);
     }
@@ -107,7 +117,8 @@ class RadixHeap {
  private:
   static constexpr int kDigitBits = 4;
   static constexpr std::size_t kDigits = std::size_t{1} << kDigitBits;
-  // Bucket 0: keys equal to last_. Then, for digit position p (0 = lowest) and digit value d,
+  // Bucket 0: keys equal to last_ (or below it, see the file comment), sorted, largest first.
+  // Then, for digit position p (0 = lowest) and digit value d,
   // bucket 1 + kDigits * p + d: keys equal to last_ above p and with d (> last_'s) at p. Bucket
   // order is key order: every key in a bucket is smaller than every key in a later one.
   static constexpr std::size_t kBuckets = 1 + kDigits * (64 / kDigitBits);
@@ -125,7 +136,7 @@ class RadixHeap {
     return 1 + kDigits * static_cast<std::size_t>(position) + static_cast<std::size_t>(digit);
   }
   // Moves the first non-empty bucket's entries down, relative to its smallest key, which
-  // becomes the last key popped: that entry lands in bucket 0, the others at least one digit
+  // becomes last_: that entry lands in bucket 0, the others at least one digit
   // lower than before. The other buckets keep their place (they differ from the new last_ in
   // the same digit as from the old one).
   void refill() {
@@ -142,14 +153,25 @@ class RadixHeap {
   }
   void place(std::size_t b, const Entry& entry) {
     std::vector<Entry>& to = buckets_[b];
+    nonempty_[b / 64] |= std::uint64_t{1} << (b % 64);
+    if (b == 0) {  // sorted, largest key first: back() is the smallest
+      to.push_back(entry);
+      std::size_t i = to.size() - 1;
+      for (; i > 0 && to[i - 1].key + 0.0 < entry.key + 0.0; --i) {
+        to[i] = to[i - 1];
+        placed_(to[i], 0, static_cast<std::uint32_t>(i));
+      }
+      to[i] = entry;
+      placed_(entry, 0, static_cast<std::uint32_t>(i));
+      return;
+    }
     placed_(entry, static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(to.size()));
     to.push_back(entry);
-    nonempty_[b / 64] |= std::uint64_t{1} << (b % 64);
   }
 
   std::array<std::vector<Entry>, kBuckets> buckets_;
   std::array<std::uint64_t, kMaskWords> nonempty_{};  // bit b: bucket b holds entries
-  std::uint64_t last_ = 0;  // bit pattern of the last key popped (or 0)
+  std::uint64_t last_ = 0;  // bit pattern of the smallest key of the last refill (or 0)
   std::size_t size_ = 0;
   [[no_unique_address]] Placed placed_;
 };

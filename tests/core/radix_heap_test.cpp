@@ -99,9 +99,31 @@ TEST(RadixHeap, MatchesASortedReferenceUnderMonotonePushes) {
   }
 }
 
+// After a look-ahead (top() before the pop it announces) the heap's refill stands at a key
+// above the last one popped; keys pushed in between still come out in key order, whatever the
+// order of their pushes.
+TEST(RadixHeap, KeysPushedAfterALookAheadComeOutInOrder) {
+  RadixHeap<Entry> heap;
+  for (const double key : {1.0, 5.0, 6.0}) heap.push({key, 0});
+  EXPECT_EQ(heap.top().key, 1.0);
+  heap.pop();
+  EXPECT_EQ(heap.top().key, 5.0);  // the look-ahead: a refill at 5
+  heap.push({2.0, 1});
+  heap.push({4.0, 2});
+  heap.push({3.0, 3});
+  heap.push({5.0, 4});
+  for (const double want : {2.0, 3.0, 4.0, 5.0, 5.0, 6.0}) {
+    ASSERT_FALSE(heap.empty());
+    EXPECT_EQ(heap.top().key, want);
+    heap.pop();
+  }
+  EXPECT_TRUE(heap.empty());
+}
+
 // decrease(): the placement callback keeps every entry's position; random entries have their
 // keys lowered (never below the last key popped, sometimes within their own bucket, sometimes
-// into a lower one) between pops and pushes. Every entry comes out exactly once, with its
+// into a lower one, sometimes into or within bucket 0 after a look-ahead) between pops and
+// pushes. Every entry comes out exactly once, with its
 // latest key, and always the smallest one in the heap.
 struct Tracked {
   double key;
@@ -139,11 +161,18 @@ TEST(RadixHeap, DecreaseLowersKeysInPlace) {
     for (int i = 0; i < 40; ++i) push(10 * unit(rng));
     std::size_t decreases = 0;
     while (!heap.empty()) {
+      // A look-ahead, as the solver's prefetch makes: the heap's refill may then hold keys
+      // above the last one popped, and lowered keys land below it, in bucket 0.
+      if (coin(rng) < 5 && !heap.empty()) heap.top();
       for (int j = 0; j < 3 && !live.empty(); ++j) {
         const std::uint32_t item = live[rng() % live.size()];
-        // Near the old key (mostly the same bucket) or anywhere down to the last key popped.
-        const double lowered = coin(rng) < 5 ? key[item] - (key[item] - last) * 1e-6 * unit(rng)
-                                             : last + (key[item] - last) * unit(rng);
+        // Near the old key (mostly the same bucket), anywhere down to the last key popped, or
+        // just above that key.
+        const int kind = coin(rng);
+        const double lowered =
+            kind < 4   ? key[item] - (key[item] - last) * 1e-6 * unit(rng)
+            : kind < 7 ? last + (key[item] - last) * unit(rng)
+                       : last + (key[item] - last) * 1e-3 * unit(rng) * (coin(rng) < 3 ? 0 : 1);
         key[item] = lowered;
         heap.decrease(at[item].first, at[item].second, {lowered, item});
         ++decreases;
