@@ -153,7 +153,8 @@ void ExactGeodesicSolver::touch_face(std::uint32_t f) {
 void ExactGeodesicSolver::HalfedgeEntryPlacement::operator()(const QueueEntry& entry,
                                                              std::uint32_t bucket,
                                                              std::uint32_t index) const {
-  if (entry.item & kHalfedgeItem) {
+  // Both bits: a vertex item's index may reach bit 30 (a mesh of 2^30 vertices).
+  if ((entry.item & (kVertexItem | kHalfedgeItem)) == kHalfedgeItem) {
     QueuedHalfedge& q = queued[entry.halfedge];
     q.bucket = bucket;
     q.index = index;
