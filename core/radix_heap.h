@@ -9,8 +9,8 @@
 // value in that digit; push is an append, and a refill moves the smallest bucket's entries at
 // least one digit down. With one bucket per bit (base 2), the keys of a solve's wavefront
 // (continuous doubles) made every entry move about log2(queue size) ~ 17 times, a quarter of a
-// solve's instructions; base 16 moves each one ~4 times. Against the 4-ary heap (core/quaternary_heap.h) base 2 already made
-// a full exact solve on horse.ply about 7% faster.
+// solve's instructions; base 16 moves each one ~4 times. Against the 4-ary heap
+// (core/quaternary_heap.h) base 2 already made a full exact solve on horse.ply about 7% faster.
 //
 // last_ is the smallest key of the last refill, which top() may run before the entry it shows
 // is popped: a caller that looks ahead (the solver prefetches the next entry while it
@@ -18,8 +18,8 @@
 // rounding can make a new key a few ulps smaller than the last one popped. Such keys go to
 // bucket 0 with the keys equal to last_, which is kept sorted (it holds few entries), so
 // entries come out in key order: never after a larger one, unless pushed below the key last
-// popped (rounding), and then next. Buckets are vectors reused across clear(), so a reused heap does not
-// allocate.
+// popped (rounding), and then next. Buckets are vectors reused across clear(), so a reused
+// heap does not allocate.
 //
 // Decrease-key: a caller that wants to lower an entry's key in place (instead of pushing a
 // new entry and skipping the stale one later) passes a `Placed` callback, told the bucket and
@@ -136,9 +136,9 @@ class RadixHeap {
     return 1 + kDigits * static_cast<std::size_t>(position) + static_cast<std::size_t>(digit);
   }
   // Moves the first non-empty bucket's entries down, relative to its smallest key, which
-  // becomes last_: that entry lands in bucket 0, the others at least one digit
-  // lower than before. The other buckets keep their place (they differ from the new last_ in
-  // the same digit as from the old one).
+  // becomes last_: that entry lands in bucket 0, the others at least one digit lower than
+  // before. The other buckets keep their place (they differ from the new last_ in the same
+  // digit as from the old one).
   void refill() {
     std::size_t word = 0;
     while (nonempty_[word] == 0) ++word;
@@ -153,7 +153,6 @@ class RadixHeap {
   }
   void place(std::size_t b, const Entry& entry) {
     std::vector<Entry>& to = buckets_[b];
-    nonempty_[b / 64] |= std::uint64_t{1} << (b % 64);
     if (b == 0) {  // sorted, largest key first: back() is the smallest
       to.push_back(entry);
       std::size_t i = to.size() - 1;
@@ -163,10 +162,11 @@ class RadixHeap {
       }
       to[i] = entry;
       placed_(entry, 0, static_cast<std::uint32_t>(i));
-      return;
+    } else {
+      placed_(entry, static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(to.size()));
+      to.push_back(entry);
     }
-    placed_(entry, static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(to.size()));
-    to.push_back(entry);
+    nonempty_[b / 64] |= std::uint64_t{1} << (b % 64);  // after push_back, which may throw
   }
 
   std::array<std::vector<Entry>, kBuckets> buckets_;
