@@ -222,9 +222,8 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   min_distance_ = options.min_distance;
   store_limit_ = max_distance_;
   // Halfedges collect many waiting windows only when the wavefront is wide (a full solve on
-  // horse.ply: 19 per batch; a local one: 1.7 per pop).
-  // Local solves keep one queue entry per window, whose branches are predictable (batching
-  // made near pairs' solves 5-9% slower).
+  // horse.ply: 19 per batch; a local one: 1.7 per pop). Local solves keep one queue entry per
+  // window, whose branches are predictable (batching made near pairs' solves 5-9% slower).
   batch_halfedges_ = targets.empty() && max_distance_ == kInfinity && options.max_queue_pops == 0;
   // Sized at the first full solve: the daemon's query solvers never make one.
   if (batch_halfedges_ && halfedge_queued_.empty()) {

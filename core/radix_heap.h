@@ -78,7 +78,7 @@ class RadixHeap {
   /// (nothing when it stays in place) and where the entry that filled its slot went.
   void decrease(std::uint32_t bucket, std::uint32_t index, const Entry& entry) {
     GEOPROX_ASSERT(bucket < kBuckets && index < buckets_[bucket].size() &&
-                       entry.key + 0.0 <= buckets_[bucket][index].key + 0.0,
+                       entry.key <= buckets_[bucket][index].key,
                    "decrease() needs the entry's current position and a key no larger");
     const std::size_t b = bucket_of(order_bits(entry.key));
     std::vector<Entry>& from = buckets_[bucket];
@@ -156,7 +156,7 @@ class RadixHeap {
     if (b == 0) {  // sorted, largest key first: back() is the smallest
       to.push_back(entry);
       std::size_t i = to.size() - 1;
-      for (; i > 0 && to[i - 1].key + 0.0 < entry.key + 0.0; --i) {
+      for (; i > 0 && to[i - 1].key < entry.key; --i) {
         to[i] = to[i - 1];
         placed_(to[i], 0, static_cast<std::uint32_t>(i));
       }

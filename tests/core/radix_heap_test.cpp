@@ -123,15 +123,11 @@ TEST(RadixHeap, KeysPushedAfterALookAheadComeOutInOrder) {
 // decrease(): the placement callback keeps every entry's position; random entries have their
 // keys lowered (never below the last key popped, sometimes within their own bucket, sometimes
 // into a lower one, sometimes into or within bucket 0 after a look-ahead) between pops and
-// pushes. Every entry comes out exactly once, with its
-// latest key, and always the smallest one in the heap.
-struct Tracked {
-  double key;
-  std::uint32_t item;
-};
+// pushes. Every entry comes out exactly once, with its latest key, and always the smallest
+// one in the heap.
 struct TrackedPositions {
   std::vector<std::pair<std::uint32_t, std::uint32_t>>* at = nullptr;
-  void operator()(const Tracked& e, std::uint32_t bucket, std::uint32_t index) const {
+  void operator()(const Entry& e, std::uint32_t bucket, std::uint32_t index) const {
     (*at)[e.item] = {bucket, index};
   }
 };
@@ -140,7 +136,7 @@ TEST(RadixHeap, DecreaseLowersKeysInPlace) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::uniform_int_distribution<int> coin(0, 9);
-  RadixHeap<Tracked, TrackedPositions> heap;
+  RadixHeap<Entry, TrackedPositions> heap;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> at;
   heap.placed().at = &at;
   for (int round = 0; round < 3; ++round) {
@@ -163,7 +159,7 @@ TEST(RadixHeap, DecreaseLowersKeysInPlace) {
     while (!heap.empty()) {
       // A look-ahead, as the solver's prefetch makes: the heap's refill may then hold keys
       // above the last one popped, and lowered keys land below it, in bucket 0.
-      if (coin(rng) < 5 && !heap.empty()) heap.top();
+      if (coin(rng) < 5) heap.top();
       for (int j = 0; j < 3 && !live.empty(); ++j) {
         const std::uint32_t item = live[rng() % live.size()];
         // Near the old key (mostly the same bucket), anywhere down to the last key popped, or
@@ -178,7 +174,7 @@ TEST(RadixHeap, DecreaseLowersKeysInPlace) {
         ++decreases;
       }
       ASSERT_EQ(heap.size(), live.size());
-      const Tracked top = heap.top();
+      const Entry top = heap.top();
       double smallest = std::numeric_limits<double>::infinity();
       for (std::uint32_t item : live) smallest = std::min(smallest, key[item]);
       ASSERT_EQ(top.key, smallest) << "round " << round;
