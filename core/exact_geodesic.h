@@ -129,6 +129,14 @@ class ExactGeodesicSolver {
   /// distance(v) this lists a bounded solve's disk without scanning the whole mesh.
   const std::vector<std::uint32_t>& touched_vertices() const { return touched_vertices_; }
 
+  /// Calls f(halfedge) for the halfedge of every window the last solve stored, in the order
+  /// stored (a halfedge comes once per window on it): the edges a bounded solve crossed,
+  /// without scanning the whole mesh.
+  template <class F>
+  void for_each_window_halfedge(F&& f) const {
+    for (std::size_t i = 0; i < windows_.size(); ++i) f(windows_[i].halfedge);
+  }
+
   /// Every point with distance <= radius_reached() is final. Infinity after a full solve.
   double radius_reached() const { return radius_reached_; }
   /// Indices (into the targets given to solve) of the settled targets, nearest first, and their

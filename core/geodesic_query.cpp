@@ -83,7 +83,8 @@ struct QueryScratch::Impl {
         link_stamp(num_samples, 0),
         link_slot(num_samples, 0),
         join_stamp(mesh.num_vertices(), 0),
-        join_distance(mesh.num_vertices()) {}
+        join_distance(mesh.num_vertices()),
+        join_edge_stamp(mesh.num_edges(), 0) {}
 
   // Lazily resets sample i's labels for this search.
   void touch(std::uint32_t i) {
@@ -145,6 +146,8 @@ struct QueryScratch::Impl {
   std::vector<QueryLinks> wide;  ///< matrices: wide links of each target of a near pair
   std::vector<char> has_wide;    ///< parallel to `wide`: computed for this matrix
   std::vector<std::uint32_t> join_edges;  ///< join_disks: the edges it searches
+  /// join_disks: long edges one disk crossed (== join_generation), to find those both did.
+  std::vector<std::uint32_t> join_edge_stamp;
 
   void poll() {
     if (interrupt && (++pops & 255) == 0) interrupt->check();
@@ -676,6 +679,7 @@ double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolve
                                  const Links& b_disk, SurfacePoint& at) const {
   if (++s.join_generation == 0) {
     std::fill(s.join_stamp.begin(), s.join_stamp.end(), 0);
+    std::fill(s.join_edge_stamp.begin(), s.join_edge_stamp.end(), 0);
     s.join_generation = 1;
   }
   for (const auto& [v, d] : a_disk.region) {
@@ -697,10 +701,9 @@ double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolve
       second_vertex = v;
     }
   }
-  if (best_vertex == UINT32_MAX) return kInfinity;
-  at = SurfacePoint::vertex(best_vertex);
   std::vector<std::uint32_t>& edges = s.join_edges;
   edges.clear();
+  if (best_vertex != UINT32_MAX) at = SurfacePoint::vertex(best_vertex);
   for (const std::uint32_t v : {best_vertex, second_vertex}) {
     if (v == UINT32_MAX) continue;
     for (const std::uint32_t h : mesh_->outgoing_halfedges(v)) {
@@ -711,7 +714,28 @@ double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolve
       }
     }
   }
-  for (const std::uint32_t e : edges) {
+  const std::size_t around_best = edges.size();
+  // Edges longer than a disk's radius that both disks crossed: where large faces fan out, the
+  // geodesic may cross such edges in the disks' overlap far from every vertex of both, and the
+  // edges around the best common vertex miss it (vase-lion.off: a pair 1.26 rho apart answered
+  // 111% long). Such a crossing may cover a small part of the edge: it is bracketed by a scan
+  // before the golden-section search.
+  const double long_edge = options_.near_radius * link_radius_;
+  a.for_each_window_halfedge([&](std::uint32_t h) {
+    const std::uint32_t e = mesh_->edge_of(h);
+    if (geometry_->edge_length(e) > long_edge) s.join_edge_stamp[e] = s.join_generation;
+  });
+  b.for_each_window_halfedge([&](std::uint32_t h) {
+    const std::uint32_t e = mesh_->edge_of(h);
+    if (s.join_edge_stamp[e] != s.join_generation) return;
+    s.join_edge_stamp[e] = 0;  // listed once
+    if (std::find(edges.begin(), edges.begin() + static_cast<std::ptrdiff_t>(around_best), e) ==
+        edges.begin() + static_cast<std::ptrdiff_t>(around_best)) {
+      edges.push_back(e);
+    }
+  });
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    const std::uint32_t e = edges[k];
     auto sum = [&](double t) {
       const SurfacePoint x = SurfacePoint::edge(e, t);
       const double total = a.distance(x) + b.distance(x);
@@ -723,10 +747,25 @@ double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolve
     };
     constexpr double kGolden = 0.38196601125010515;  // (3 - sqrt 5) / 2
     double lo = 0, hi = 1;
-    double x1 = kGolden, x2 = 1 - kGolden;
+    if (k >= around_best) {  // a long edge: bracket the best of a scan
+      constexpr int kScan = 64;
+      int best_step = -1;
+      double best_scan = kInfinity;
+      for (int i = 0; i <= kScan; ++i) {
+        const double total = sum(static_cast<double>(i) / kScan);
+        if (total < best_scan) {
+          best_scan = total;
+          best_step = i;
+        }
+      }
+      if (best_step < 0) continue;
+      lo = std::max(0.0, static_cast<double>(best_step - 1) / kScan);
+      hi = std::min(1.0, static_cast<double>(best_step + 1) / kScan);
+    }
+    double x1 = lo + kGolden * (hi - lo), x2 = hi - kGolden * (hi - lo);
     double f1 = sum(x1), f2 = sum(x2);
     if (f1 == kInfinity && f2 == kInfinity) continue;
-    for (int k = 0; k < 28; ++k) {  // the bracket shrinks to 1.4e-6 of the edge
+    for (int iteration = 0; iteration < 28; ++iteration) {  // to 1.4e-6 of the bracket
       if (f1 <= f2) {
         hi = x2;
         x2 = x1;

@@ -484,6 +484,47 @@ TEST(GeodesicQuery, NearPairsAreRefined) {
   RecordProperty("worst_error_joined", fmt(worst_joined));
 }
 
+TEST(GeodesicQuery, NearPairsJoinAcrossLongEdges) {
+  // A flat strip whose only vertices are on its two long sides, cut into long slanted
+  // triangles (rails 0.05 apart, diagonals 1.41 long, over three link radii). Two points on the
+  // middle line, at the middles of diagonals 0.5 apart, have near disks that overlap only in
+  // the strip's middle, half a unit from every vertex: their common vertices lie off the
+  // segment, and so do the edges around them. The join meets the disks on the long edges both
+  // crossed: the straight distance, to rounding (before, 1.177: 135% long).
+  constexpr int kSegments = 40;
+  constexpr double kStep = 0.05, kShear = 1.0;
+  MeshData data;
+  for (int i = 0; i <= kSegments; ++i) data.positions.push_back({i * kStep, 0, 0});
+  for (int i = 0; i <= kSegments; ++i) data.positions.push_back({i * kStep + kShear, 1, 0});
+  const auto bottom = [](int i) { return static_cast<std::uint32_t>(i); };
+  const auto top = [](int i) { return static_cast<std::uint32_t>(kSegments + 1 + i); };
+  for (int i = 0; i < kSegments; ++i) {
+    data.faces.push_back({bottom(i), bottom(i + 1), top(i)});
+    data.faces.push_back({bottom(i + 1), top(i + 1), top(i)});
+  }
+  const TestMesh strip = make_test_mesh(std::move(data));
+  const QueryEnv env(strip, graph_options(40, 6));
+  const double rho = env.query.link_radius();
+  // The middle of diagonal i (bottom(i) to top(i), halfedge 2 of face 2i): (i * kStep + 0.5, 0.5).
+  const auto middle_of_diagonal = [&](int i) {
+    const auto h = static_cast<std::uint32_t>(3 * (2 * i) + 2);
+    EXPECT_EQ(env.mesh.origin(h), top(i));
+    EXPECT_EQ(env.mesh.target(h), bottom(i));
+    return SurfacePoint::edge(env.mesh.edge_of(h), 0.5);
+  };
+  QueryScratch scratch = env.query.make_scratch();
+  const double gap = 10 * kStep;
+  ASSERT_GT(gap, rho) << "the pair must not be answered by a link solve";
+  const SurfacePoint s = middle_of_diagonal(15), t = middle_of_diagonal(25);
+  const DistanceResult forward = env.query.distance(s, t, scratch);
+  const DistanceResult backward = env.query.distance(t, s, scratch);
+  const std::string what = "rho " + fmt(rho) + ": " + fmt(forward.distance) + " and back " +
+                           fmt(backward.distance);
+  EXPECT_TRUE(forward.joined && backward.joined) << what;
+  EXPECT_TRUE(close_rel(forward.distance, gap, 1e-9)) << what;
+  EXPECT_TRUE(same_bits(forward.distance, backward.distance)) << what;
+}
+
 TEST(GeodesicQuery, FlatGridWithinTheoremBoundOfEuclidean) {
   const QueryEnv& env = grid_env();
   const double bound = env.graph.view().error_bound();
