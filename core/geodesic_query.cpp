@@ -185,6 +185,9 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
   }
   bbox_diagonal_ = bounding_box_diagonal(mesh);
   mean_edge_length_ = geometry.mean_edge_length();
+  for (const double length : geometry.edge_lengths()) {
+    longest_edge_length_ = std::max(longest_edge_length_, length);
+  }
   // The work of a near disk (see solve_near): the median of a solve out to near_radius rho
   // from 15 samples taken at even steps of their order (not the first ones: farthest-point
   // sampling starts at the extremities).
@@ -721,19 +724,20 @@ double GeodesicQuery::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolve
   // 111% long). Such a crossing may cover a small part of the edge: it is bracketed by a scan
   // before the golden-section search.
   const double long_edge = options_.near_radius * link_radius_;
-  a.for_each_window_halfedge([&](std::uint32_t h) {
-    const std::uint32_t e = mesh_->edge_of(h);
-    if (geometry_->edge_length(e) > long_edge) s.join_edge_stamp[e] = s.join_generation;
-  });
-  b.for_each_window_halfedge([&](std::uint32_t h) {
-    const std::uint32_t e = mesh_->edge_of(h);
-    if (s.join_edge_stamp[e] != s.join_generation) return;
-    s.join_edge_stamp[e] = 0;  // listed once
-    if (std::find(edges.begin(), edges.begin() + static_cast<std::ptrdiff_t>(around_best), e) ==
-        edges.begin() + static_cast<std::ptrdiff_t>(around_best)) {
+  if (longest_edge_length_ > long_edge) {  // most meshes have none: no pass over the windows
+    a.for_each_window_halfedge([&](std::uint32_t h) {
+      const std::uint32_t e = mesh_->edge_of(h);
+      if (geometry_->edge_length(e) > long_edge) s.join_edge_stamp[e] = s.join_generation;
+    });
+    // Unstamped: the edges already listed, and each long edge once listed.
+    for (const std::uint32_t e : edges) s.join_edge_stamp[e] = 0;
+    b.for_each_window_halfedge([&](std::uint32_t h) {
+      const std::uint32_t e = mesh_->edge_of(h);
+      if (s.join_edge_stamp[e] != s.join_generation) return;
+      s.join_edge_stamp[e] = 0;
       edges.push_back(e);
-    }
-  });
+    });
+  }
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const std::uint32_t e = edges[k];
     auto sum = [&](double t) {

@@ -275,6 +275,7 @@ class GeodesicQuery {
   double bbox_diagonal_ = 0;
   std::size_t near_pops_ = 0;  ///< work budget of a near pair's disk (see solve_near)
   double mean_edge_length_ = 0;  ///< of the intrinsic edges (see sparseness)
+  double longest_edge_length_ = 0;  ///< of the intrinsic edges (see join_disks)
   mutable std::once_flag snap_index_once_;
   mutable std::unique_ptr<ClosestPointIndex> snap_index_;
 };

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <unistd.h>
 #include <vector>
 
 namespace reference {
@@ -36,6 +37,57 @@ inline bool read_obj(const char* path, std::vector<double>& points, std::vector<
   }
   return true;
 }
+
+/// The drivers' command line, `MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]`, and the mesh.
+struct Run {
+  std::vector<double> points;  ///< x y z per vertex
+  std::vector<unsigned> faces;  ///< three 0-based vertex ids per triangle
+  unsigned source = 0;
+  int runs = 0;
+  const char* distances_out = nullptr;
+  std::size_t num_vertices() const { return points.size() / 3; }
+};
+
+/// Reads the command line and the mesh; on failure says why and returns the exit code (1 usage,
+/// 2 unreadable mesh, 3 bad source or run count), else 0.
+inline int start(int argc, char** argv, Run& run) {
+  if (argc < 4) {
+    std::fprintf(stderr, "usage: %s MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]\n", argv[0]);
+    return 1;
+  }
+  if (!read_obj(argv[1], run.points, run.faces)) {
+    std::fprintf(stderr, "cannot read %s (triangles only)\n", argv[1]);
+    return 2;
+  }
+  run.source = static_cast<unsigned>(std::atol(argv[2]));
+  run.runs = std::atoi(argv[3]);
+  run.distances_out = argc > 4 ? argv[4] : nullptr;
+  if (run.source >= run.num_vertices() || run.runs < 1) {
+    std::fprintf(stderr, "source vertex out of range or no runs\n");
+    return 3;
+  }
+  return 0;
+}
+
+/// While alive, what the solvers print on stdout (their set-up chatter) goes to stderr, so that
+/// stdout holds only the report.
+class StdoutToStderr {
+ public:
+  StdoutToStderr() : saved_(dup(1)) {
+    std::fflush(stdout);
+    dup2(2, 1);
+  }
+  ~StdoutToStderr() {
+    std::fflush(stdout);
+    dup2(saved_, 1);
+    close(saved_);
+  }
+  StdoutToStderr(const StdoutToStderr&) = delete;
+  StdoutToStderr& operator=(const StdoutToStderr&) = delete;
+
+ private:
+  int saved_;
+};
 
 /// Prints the median and minimum time, the check distances and every run's time.
 inline void report(const std::vector<double>& times_ms, const std::vector<double>& distance,

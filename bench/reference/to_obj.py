@@ -7,40 +7,17 @@ file holds): with 9 digits a float32 PLY round-trips for a float reader but not 
 reader, and horse.ply's distances then move by 2e-9. Triangles only; PLY binary little-endian or
 ascii, with one vertex element (x, y, z among scalar properties) and one face list element.
 """
+import os
 import struct
 import sys
+
+# OBJ and OFF: the readers of scripts/subdivide_mesh.py.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
+from subdivide_mesh import read_obj, read_off  # noqa: E402
 
 PLY_TYPES = {'char': 'b', 'int8': 'b', 'uchar': 'B', 'uint8': 'B', 'short': 'h', 'int16': 'h',
              'ushort': 'H', 'uint16': 'H', 'int': 'i', 'int32': 'i', 'uint': 'I', 'uint32': 'I',
              'float': 'f', 'float32': 'f', 'double': 'd', 'float64': 'd'}
-
-
-def read_obj(path):
-    vertices, faces = [], []
-    for line in open(path):
-        tokens = line.split()
-        if tokens and tokens[0] == 'v':
-            vertices.append(tuple(float(t) for t in tokens[1:4]))
-        elif tokens and tokens[0] == 'f':
-            faces.append(tuple(int(t.split('/')[0]) - 1 for t in tokens[1:]))
-    return vertices, faces
-
-
-def read_off(path):
-    tokens = [t for line in open(path) for t in line.split('#')[0].split()]
-    assert tokens[0] == 'OFF', 'not an OFF file'
-    nv, nf = int(tokens[1]), int(tokens[2])
-    at = 4
-    vertices = []
-    for _ in range(nv):
-        vertices.append(tuple(float(t) for t in tokens[at:at + 3]))
-        at += 3
-    faces = []
-    for _ in range(nf):
-        n = int(tokens[at])
-        faces.append(tuple(int(t) for t in tokens[at + 1:at + 1 + n]))
-        at += 1 + n
-    return vertices, faces
 
 
 def read_ply(path):

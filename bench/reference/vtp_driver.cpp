@@ -2,8 +2,7 @@
 // triangle-oriented wavefront propagation", SIGGRAPH 2016) from its public source: see README.md.
 //   vtp_driver MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]
 #include <chrono>
-#include <cstdio>
-#include <unistd.h>
+#include <memory>
 
 #include "stdafx.h"
 #include "geodesic_algorithm_exact.h"
@@ -12,39 +11,28 @@
 #include "common.h"
 
 int main(int argc, char** argv) {
-  if (argc < 4) {
-    std::fprintf(stderr, "usage: %s MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]\n", argv[0]);
-    return 1;
-  }
-  std::vector<double> points;
-  std::vector<unsigned> faces;
-  if (!reference::read_obj(argv[1], points, faces)) {
-    std::fprintf(stderr, "cannot read %s (triangles only)\n", argv[1]);
-    return 2;
-  }
-  const auto source = static_cast<unsigned>(std::atol(argv[2]));
-  const int runs = std::atoi(argv[3]);
-  const std::size_t nv = points.size() / 3;
-  if (source >= nv || runs < 1) return 3;
-  std::vector<double> times, distance(nv);
-  for (int r = 0; r < runs; ++r) {
+  reference::Run run;
+  if (const int status = reference::start(argc, argv, run)) return status;
+  std::vector<double> times, distance(run.num_vertices());
+  for (int r = 0; r < run.runs; ++r) {
     // VTP keeps its state in the mesh and never resets it: a fresh mesh and solver per run,
-    // built outside the timer. Its set-up chatter goes to stderr.
-    const int saved = dup(1);
-    dup2(2, 1);
+    // built outside the timer.
     geodesic::Mesh mesh;
-    mesh.initialize_mesh_data(points, faces);
-    geodesic::GeodesicAlgorithmExact algorithm(&mesh);
-    std::fflush(stdout);
-    dup2(saved, 1);
-    close(saved);
+    std::unique_ptr<geodesic::GeodesicAlgorithmExact> algorithm;
+    {
+      const reference::StdoutToStderr quiet;
+      mesh.initialize_mesh_data(run.points, run.faces);
+      algorithm = std::make_unique<geodesic::GeodesicAlgorithmExact>(&mesh);
+    }
     const auto start = std::chrono::steady_clock::now();
-    algorithm.propagate(source);
+    algorithm->propagate(run.source);
     times.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-    for (std::size_t v = 0; v < nv; ++v) distance[v] = mesh.vertices()[v].geodesic_distance();
+    for (std::size_t v = 0; v < distance.size(); ++v) {
+      distance[v] = mesh.vertices()[v].geodesic_distance();
+    }
   }
   reference::report(times, distance, geodesic::GEODESIC_INF / 2);
-  if (argc > 4) reference::write_distances(argv[4], distance);
+  if (run.distances_out) reference::write_distances(run.distances_out, distance);
   return 0;
 }
