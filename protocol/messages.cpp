@@ -1,5 +1,6 @@
 #include "protocol/messages.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -523,6 +524,10 @@ Params parse_params(Method method, const json& params, const Limits& limits,
       if (auto samples = fields.optional_positive_integer("samples", limits.max_points_per_request)) {
         if (*samples < 2) fields.fail("samples", "must be at least 2 (the curve's two ends)");
         parsed.samples = static_cast<std::uint32_t>(*samples);
+      } else {
+        // The default must itself be a valid request under a server's smaller limit.
+        parsed.samples = static_cast<std::uint32_t>(std::min<std::size_t>(
+            parsed.samples, std::max<std::size_t>(2, limits.max_points_per_request)));
       }
       parsed.exact = fields.optional_bool("exact", false);
       finish(fields);

@@ -171,7 +171,8 @@ struct SplineParams {
   std::string mesh;
   std::vector<WirePoint> control;  ///< 4 to max_points_per_request points
   SplineKind type = SplineKind::Bezier;
-  std::uint32_t samples = 100;  ///< curve points, 2 to max_points_per_request
+  /// Curve points, 2 to max_points_per_request; when absent, 100 or max_points_per_request if less.
+  std::uint32_t samples = 100;
   bool exact = false;           ///< exact geodesics instead of the graph's
 };
 

@@ -67,6 +67,15 @@ TEST(ApplicationMethods, SplineParams) {
   expect_refused(Method::GeodesicSpline,
                  json::parse(R"({"mesh":"spot","control":["v:0","v:1","v:2","v:3"],"samples":51})"),
                  ErrorReason::InvalidParams, "params.samples", small);
+  // Without "samples", a server with a smaller limit than the default asks for that many, and
+  // the request written back (what a client sends) is valid under the same limit.
+  const json default_under_small = json::parse(R"({"mesh":"spot","control":["v:0","v:1","v:2","v:3"]})");
+  const SplineParams clamped =
+      std::get<SplineParams>(parse_params(Method::GeodesicSpline, default_under_small, small));
+  EXPECT_EQ(clamped.samples, 50u);
+  EXPECT_EQ(std::get<SplineParams>(parse_params(Method::GeodesicSpline,
+                                                json(Params(clamped)), small)).samples,
+            50u);
   json many = json::array();
   for (int i = 0; i < 52; ++i) many.push_back("v:" + std::to_string(i));
   expect_refused(Method::GeodesicSpline, json{{"mesh", "spot"}, {"control", many}},

@@ -779,7 +779,10 @@ class Client(_Methods[Any]):
         selector = selectors.DefaultSelector()
         try:
             selector.register(sock, selectors.EVENT_READ | selectors.EVENT_WRITE)
-            while waiting:
+            # Until every reply is in and the whole payload is out: a server may answer a line
+            # before reading all of it (TooLarge), and a line left half-sent would swallow the
+            # next request into it.
+            while waiting or sent < len(out):
                 remaining = None if deadline is None else deadline - time.monotonic()
                 if remaining is not None and remaining <= 0:
                     if sent < len(out):

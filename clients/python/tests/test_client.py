@@ -664,6 +664,38 @@ class ConnectionTest(unittest.TestCase):
             self.assertIsInstance(caught.exception, TimeoutError)
             self.assertEqual(caught.exception.reason, Reason.TIMEOUT)
 
+    def test_early_reply_to_a_long_line(self) -> None:
+        # geoproxd answers TooLarge after reading max_line_bytes + 1 bytes of a line, while the
+        # client may still be sending it: the client must finish the line, or the next request
+        # becomes part of it. The pad is larger than loopback's socket buffers, so the reply
+        # arrives while most of it is unsent.
+        too_large = {
+            "code": -32020,
+            "message": "request line longer than 1048576 bytes",
+            "data": {"reason": "TooLarge", "retryable": False},
+        }
+
+        def handle(connection: socket.socket, lines: Callable[[int], list]) -> None:
+            received = connection.recv(4096)
+            connection.sendall(
+                json.dumps({"jsonrpc": "2.0", "id": None, "error": too_large}).encode() + b"\n"
+            )
+            time.sleep(0.2)  # the reply is read before the line is sent
+            while received.count(b"\n") < 2:
+                chunk = connection.recv(1 << 20)
+                if not chunk:
+                    return
+                received += chunk
+            second = json.loads(received.split(b"\n")[1])
+            connection.sendall(reply(second["id"], {"ready": True}))
+            time.sleep(0.5)
+
+        with FakeServer(handle) as server, geoprox.Client(port=server.port, timeout=30) as client:
+            with self.assertRaises(ServerError) as caught:
+                client.call("server.health", {"pad": "x" * (32 << 20)})
+            self.assertEqual(caught.exception.reason, Reason.TOO_LARGE)
+            self.assertTrue(client.health()["ready"])
+
     def test_late_reply_is_dropped(self) -> None:
         with daemon().client() as client:
             sock = client._sock
