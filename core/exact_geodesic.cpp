@@ -41,16 +41,14 @@ double cross2(double ax, double ay, double bx, double by) { return ax * by - ay 
 // coordinates are nowhere near overflow.
 inline double length2(double x, double y) { return std::sqrt(x * x + y * y); }
 
-// The nearest float at or below / at or above x, for x in [-1e30, 1e30] (window spans, whose
-// screens must contain the double interval). Stepping the bit pattern is the next float towards
-// zero or away from it: std::nextafter is a library call, a few percent of a solve here.
+// A float at or below / at or above x, for x in [-1e30, 1e30] (window spans, whose screens
+// must contain the double interval): the nearest float moved outwards by at least two of its
+// ulps (|f| 2^-22), so whichever way the conversion and the subtraction round, the result is
+// past x, at most three ulps wider than needed. Branch-free: stepping the bit pattern when the
+// conversion had rounded the wrong way mispredicted half the time (1-2% of a full solve).
 inline float round_down_to_float(double x) {
   const auto f = static_cast<float>(x);
-  if (!(f > x)) return f;
-  const auto bits = std::bit_cast<std::uint32_t>(f);
-  return f > 0 ? std::bit_cast<float>(bits - 1)
-               : (f == 0 ? -std::numeric_limits<float>::denorm_min()
-                         : std::bit_cast<float>(bits + 1));
+  return f - (std::abs(f) * 0x1p-22f + std::numeric_limits<float>::denorm_min());
 }
 inline float round_up_to_float(double x) { return -round_down_to_float(-x); }
 
