@@ -15,6 +15,7 @@
 // Reads only IntrinsicGeometry (edge lengths): positions are used only to report path points.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -202,6 +203,36 @@ class ExactGeodesicSolver {
       }
       return mask;
 #endif
+    }
+    /// Bit i set when slot i overlaps [qlo, qhi] by less than min_overlap with neither
+    /// interval inside the other (a sliver overlap), judged in float on the listed span.
+    unsigned sliver_mask(float qlo, float qhi, float min_overlap) const {
+#if defined(__SSE2__)
+      const __m128 l = _mm_loadu_ps(lo), h = _mm_loadu_ps(hi);
+      const __m128 ql = _mm_set1_ps(qlo), qh = _mm_set1_ps(qhi);
+      const __m128 overlap = _mm_sub_ps(_mm_min_ps(qh, h), _mm_max_ps(ql, l));
+      const __m128 thin = _mm_cmplt_ps(overlap, _mm_set1_ps(min_overlap));
+      const __m128 mine_sticks_out = _mm_or_ps(_mm_cmplt_ps(ql, l), _mm_cmpgt_ps(qh, h));
+      const __m128 theirs_sticks_out = _mm_or_ps(_mm_cmplt_ps(l, ql), _mm_cmpgt_ps(h, qh));
+      const __m128 sliver = _mm_and_ps(thin, _mm_and_ps(mine_sticks_out, theirs_sticks_out));
+      return static_cast<unsigned>(_mm_movemask_ps(sliver)) | sliver_slot(4, qlo, qhi, min_overlap) << 4;
+#else
+      unsigned mask = 0;
+      for (int i = 0; i < kCapacity; ++i) mask |= sliver_slot(i, qlo, qhi, min_overlap) << i;
+      return mask;
+#endif
+    }
+    unsigned sliver_slot(int i, float qlo, float qhi, float min_overlap) const {
+      const bool thin = std::min(qhi, hi[i]) - std::max(qlo, lo[i]) < min_overlap;
+      return static_cast<unsigned>(thin & ((qlo < lo[i]) | (qhi > hi[i])) &
+                                   ((lo[i] < qlo) | (hi[i] > qhi)));
+    }
+    /// Slots holding a window (free slots come last). Counted without a branch: a loop to the
+    /// first free slot mispredicted once per listing.
+    int used() const {
+      int n = 0;
+      for (int i = 0; i < kCapacity; ++i) n += window[i] >= 0;
+      return n;
     }
     void empty_slot(int i) {
       lo[i] = std::numeric_limits<float>::infinity();
