@@ -2,7 +2,7 @@
 // algorithm on the discrete geodesic problem", ACM TOG 28(4), 2009 (ICH), with the windows
 // processed in order of their minimum distance, or a lower bound of it (as in Mitchell, Mount &
 // Papadimitriou 1987 and Surazhsky et al. 2005) so a solve can stop early, and with windows
-// trimmed against the vertices' current distances (ICH's filters) and against the other windows
+// trimmed against the vertices' current distances (ICH's filters) and against the newest windows
 // on their edge (MMP's pairwise trimming) when they are created. docs/exact_geodesic.md has the
 // details and the robustness decisions.
 //
