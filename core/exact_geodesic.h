@@ -215,7 +215,8 @@ class ExactGeodesicSolver {
       const __m128 mine_sticks_out = _mm_or_ps(_mm_cmplt_ps(ql, l), _mm_cmpgt_ps(qh, h));
       const __m128 theirs_sticks_out = _mm_or_ps(_mm_cmplt_ps(l, ql), _mm_cmpgt_ps(h, qh));
       const __m128 sliver = _mm_and_ps(thin, _mm_and_ps(mine_sticks_out, theirs_sticks_out));
-      return static_cast<unsigned>(_mm_movemask_ps(sliver)) | sliver_slot(4, qlo, qhi, min_overlap) << 4;
+      return static_cast<unsigned>(_mm_movemask_ps(sliver)) |
+             sliver_slot(4, qlo, qhi, min_overlap) << 4;
 #else
       unsigned mask = 0;
       for (int i = 0; i < kCapacity; ++i) mask |= sliver_slot(i, qlo, qhi, min_overlap) << i;
@@ -263,6 +264,8 @@ class ExactGeodesicSolver {
   double incoming_angle(std::uint32_t vertex, std::uint32_t& fan_start) const;
   void emit_into_corner(std::uint32_t vertex, std::uint32_t halfedge, double angle_begin,
                         double angle_end);
+  /// Prefetches what creating windows on the two halfedges a window leaves by will read.
+  void prefetch_children(const HalfedgeCrossing& crossing) const;
   void propagate_halfedge(std::uint32_t halfedge, double key);
   void propagate(std::uint32_t window_index);
   void create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source, double sigma,
