@@ -367,5 +367,11 @@ TEST(MeshIoFuzzRegression, PlyElementWithoutPropertiesIsRefused) {
                             "ParseError", {":7:", "'junk'", "4000000000", "no properties"});
 }
 
+TEST(MeshIoFuzzRegression, PlyVersionOtherThanOneIsRefused) {
+  // "format binary_little_endian 1444...4.0" (1.4e121): OpenMesh's reader asked for 2 GiB.
+  expect_refusal<FileError>(fuzz_reproducer_file("ply-huge-version"), "ParseError",
+                            {":2:", "unsupported PLY version", "only 1.0"});
+}
+
 }  // namespace
 }  // namespace geoprox

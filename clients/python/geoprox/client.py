@@ -781,10 +781,15 @@ class Client(_Methods[Any]):
             selector.register(sock, selectors.EVENT_READ | selectors.EVENT_WRITE)
             # Until every reply is in and the whole payload is out: a server may answer a line
             # before reading all of it (TooLarge), and a line left half-sent would swallow the
-            # next request into it.
-            while waiting or sent < len(out):
+            # next request into it. Once every reply is in, a connection that cannot take the
+            # rest of the payload is dropped, and the answers stand.
+            send_error: Optional[OSError] = None  # the server stopped taking the payload
+            while waiting or (sent < len(out) and send_error is None):
                 remaining = None if deadline is None else deadline - time.monotonic()
                 if remaining is not None and remaining <= 0:
+                    if not waiting:
+                        self._drop()
+                        return
                     if sent < len(out):
                         self._drop()  # a half-sent line would corrupt the next request
                     else:
@@ -794,12 +799,15 @@ class Client(_Methods[Any]):
                         f"({len(waiting)} of {len(by_id)} requests unanswered)"
                     )
                 for _key, mask in selector.select(remaining):
-                    if mask & selectors.EVENT_WRITE and sent < len(out):
+                    if mask & selectors.EVENT_WRITE and sent < len(out) and send_error is None:
                         try:
                             sent += sock.send(out[sent : sent + _SEND_BYTES])
                         except (BlockingIOError, InterruptedError):
                             pass
-                        if sent == len(out):
+                        except OSError as e:
+                            # Its replies may be in already (TooLarge, then it hung up): read on.
+                            send_error = e
+                        if sent == len(out) or send_error is not None:
                             selector.modify(sock, selectors.EVENT_READ)
                     if mask & selectors.EVENT_READ:
                         try:
@@ -808,16 +816,24 @@ class Client(_Methods[Any]):
                             continue
                         if not data:
                             self._drop()
+                            if not waiting:
+                                return
+                            if send_error is not None:
+                                raise send_error
                             raise GeoproxConnectionError(
                                 f"connection closed by {self.host}:{self.port} "
                                 f"({len(waiting)} of {len(by_id)} requests unanswered)"
                             )
                         self._rbuf += data
                         self._take_replies(waiting, by_id)
+            if sent < len(out):
+                self._drop()  # answered, but the rest of the payload could not be sent
         except GeoproxError:
             raise
         except OSError as e:
             self._drop()
+            if not waiting:
+                return
             raise GeoproxConnectionError(
                 f"connection to {self.host}:{self.port} failed: {e.strerror or e}"
             ) from e

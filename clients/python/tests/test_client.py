@@ -696,6 +696,28 @@ class ConnectionTest(unittest.TestCase):
             self.assertEqual(caught.exception.reason, Reason.TOO_LARGE)
             self.assertTrue(client.health()["ready"])
 
+        # A server that answers and then hangs up before the line is sent: the answer stands
+        # (not a connection error), and the next request opens a new connection.
+        def answer_and_hang_up(connection: socket.socket, lines: Callable[[int], list]) -> None:
+            received = connection.recv(4096)
+            if received.startswith(b'{"jsonrpc":"2.0","id":') and b"pad" not in received:
+                (request,) = [json.loads(received.split(b"\n")[0])]
+                connection.sendall(reply(request["id"], {"ready": True}))
+                time.sleep(0.5)
+                return
+            connection.sendall(
+                json.dumps({"jsonrpc": "2.0", "id": None, "error": too_large}).encode() + b"\n"
+            )
+            connection.shutdown(socket.SHUT_RDWR)
+
+        with FakeServer(answer_and_hang_up) as server:
+            with geoprox.Client(port=server.port, timeout=30) as client:
+                with self.assertRaises(ServerError) as caught:
+                    client.call("server.health", {"pad": "x" * (32 << 20)})
+                self.assertEqual(caught.exception.reason, Reason.TOO_LARGE)
+                self.assertFalse(client.connected)
+                self.assertTrue(client.health()["ready"])
+
     def test_late_reply_is_dropped(self) -> None:
         with daemon().client() as client:
             sock = client._sock
