@@ -656,8 +656,11 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
     // PLY has one version, 1.0. OpenMesh's reader builds a string as long as the number it
     // reads there: a version of 1e121 made it ask for 2 GiB (a fuzz finding).
     if (*parse_real(tokens[2]) != 1.0) {
+      const std::string_view version = tokens[2].substr(0, 32);
       throw_parse_error(path, lines.line(),
-                        "unsupported PLY version '" + std::string(tokens[2]) + "' (only 1.0 exists)");
+                        "unsupported PLY version '" + std::string(version) +
+                            (version.size() < tokens[2].size() ? "...'" : "'") +
+                            " (only 1.0 exists)");
     }
   }
   while (!ended) {

@@ -171,7 +171,7 @@ struct SplineParams {
   std::string mesh;
   std::vector<WirePoint> control;  ///< 4 to max_points_per_request points
   SplineKind type = SplineKind::Bezier;
-  /// Curve points, 2 to max_points_per_request; when absent, 100 or max_points_per_request if less.
+  /// Curve points, 2 to max_points_per_request; 100 when absent (or the limit if less).
   std::uint32_t samples = 100;
   bool exact = false;           ///< exact geodesics instead of the graph's
 };
