@@ -2,7 +2,7 @@
 // algorithm on the discrete geodesic problem", ACM TOG 28(4), 2009 (ICH), with the windows
 // processed in order of their minimum distance, or a lower bound of it (as in Mitchell, Mount &
 // Papadimitriou 1987 and Surazhsky et al. 2005) so a solve can stop early, and with windows
-// trimmed against the vertices' current distances (ICH's filters) and against the newest windows
+// trimmed against the vertices' current distances (ICH's filters) and against the other windows
 // on their edge (MMP's pairwise trimming) when they are created. docs/exact_geodesic.md has the
 // details and the robustness decisions.
 //
@@ -264,8 +264,6 @@ class ExactGeodesicSolver {
   double incoming_angle(std::uint32_t vertex, std::uint32_t& fan_start) const;
   void emit_into_corner(std::uint32_t vertex, std::uint32_t halfedge, double angle_begin,
                         double angle_end);
-  /// Prefetches what creating windows on the two halfedges a window leaves by will read.
-  void prefetch_children(const HalfedgeCrossing& crossing) const;
   void propagate_halfedge(std::uint32_t halfedge, double key);
   void propagate(std::uint32_t window_index);
   void create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source, double sigma,
