@@ -107,11 +107,8 @@ ExactGeodesicSolver::ExactGeodesicSolver(const TriangleMesh& mesh,
   vertex_via_vertex_.assign(nv, kViaNone);
   vertex_source_.assign(nv, 0);
   vertex_emitted_.assign(nv, 0);
-  vertex_target_stamp_.assign(nv, 0);
-  vertex_first_target_.assign(nv, -1);
   halfedge_state_.assign(3 * nf, HalfedgeState{0, -1});
   face_stamp_.assign(nf, 0);
-  face_first_target_.assign(nf, -1);
   face_first_seed_.assign(nf, -1);
 }
 
@@ -120,7 +117,6 @@ void ExactGeodesicSolver::reset() {
   for (std::uint32_t v : touched_vertices_) vertex_distance_[v] = kInfinity;
   ++generation_;
   if (generation_ == 0) {  // wrapped: clear the stamps once every 2^32 solves
-    std::fill(vertex_target_stamp_.begin(), vertex_target_stamp_.end(), 0);
     std::fill(halfedge_state_.begin(), halfedge_state_.end(), HalfedgeState{0, -1});
     std::fill(face_stamp_.begin(), face_stamp_.end(), 0);
     generation_ = 1;
@@ -130,12 +126,13 @@ void ExactGeodesicSolver::reset() {
   queue_.clear();
   seeds_.clear();
   sources_.clear();
-  targets_.clear();
+  targets_ = nullptr;
+  for (const std::uint32_t i : touched_targets_) target_state_[i] = TargetState{};
+  touched_targets_.clear();
   target_queue_.clear();
   settled_targets_.clear();
   settled_distances_.clear();
   touched_vertices_.clear();
-  face_targets_ = 0;
   radius_reached_ = kInfinity;
   skipped_min_key_ = kInfinity;
   nearest_targets_.clear();
@@ -145,7 +142,6 @@ void ExactGeodesicSolver::reset() {
 void ExactGeodesicSolver::touch_face(std::uint32_t f) {
   if (face_stamp_[f] != generation_) {
     face_stamp_[f] = generation_;
-    face_first_target_[f] = -1;
     face_first_seed_[f] = -1;
   }
 }
@@ -186,7 +182,7 @@ void ExactGeodesicSolver::relax_vertex(std::uint32_t v, double distance, std::in
       (geometry_->is_pseudo_source(v) || via_vertex == kViaSourceVertex)) {
     push(distance, kVertexItem | v);
   }
-  if (!targets_.empty()) update_targets_at_vertex(v);
+  if (targets_) update_targets_at_vertex(v);
 }
 
 void ExactGeodesicSolver::solve(const SurfacePoint& source, const Options& options) {
@@ -194,8 +190,8 @@ void ExactGeodesicSolver::solve(const SurfacePoint& source, const Options& optio
   solve(std::span<const GeodesicSource>(&one, 1), {}, options);
 }
 
-void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
-                                std::span<const SurfacePoint> targets, const Options& options) {
+void ExactGeodesicSolver::check_solve_input(std::span<const GeodesicSource> sources,
+                                            const Options& options) const {
   for (const GeodesicSource& s : sources) {
     s.point.validate(*mesh_);
     if (!std::isfinite(s.offset) || s.offset < 0) {
@@ -203,28 +199,53 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
                                           " must be finite and non-negative");
     }
   }
-  for (const SurfacePoint& t : targets) t.validate(*mesh_);
   if (std::isnan(options.max_distance) || options.max_distance < 0) {
     throw InvalidInput("BadRadius", "max_distance must be a non-negative number");
   }
   if (std::isnan(options.min_distance) || options.min_distance < 0) {
     throw InvalidInput("BadRadius", "min_distance must be a non-negative number");
   }
+}
+
+void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
+                                std::span<const SurfacePoint> targets, const Options& options) {
+  check_solve_input(sources, options);
+  if (targets.empty()) {
+    run(sources, nullptr, options);
+    return;
+  }
+  own_targets_.assign(*geometry_, targets);  // validates the targets first
+  run(sources, &own_targets_, options);
+}
+
+void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
+                                const GeodesicTargets& targets, const Options& options) {
+  check_solve_input(sources, options);
+  if (!targets.empty() && &targets.geometry_->mesh() != mesh_) {
+    throw InvalidInput("TargetsForAnotherMesh",
+                       "the targets were prepared for another mesh than the solver's");
+  }
+  run(sources, targets.empty() ? nullptr : &targets, options);
+}
+
+void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
+                              const GeodesicTargets* targets, const Options& options) {
   reset();
   sources_.assign(sources.begin(), sources.end());
-
-  // Register targets before seeding so that seeds already update their estimates.
-  for (std::uint32_t i = 0; i < targets.size(); ++i) add_target(i, targets[i]);
+  // Targets are in place before seeding so that seeds already update their estimates.
+  targets_ = targets;
+  const std::size_t num_targets = targets ? targets->size() : 0;
+  if (target_state_.size() < num_targets) target_state_.resize(num_targets);
   targets_wanted_ = options.stop_after_targets == 0
-                        ? targets_.size()
-                        : std::min(options.stop_after_targets, targets_.size());
+                        ? num_targets
+                        : std::min(options.stop_after_targets, num_targets);
   max_distance_ = options.max_distance;
   min_distance_ = options.min_distance;
   store_limit_ = max_distance_;
   // Halfedges collect many waiting windows only when the wavefront is wide (a full solve on
   // horse.ply: 19 per batch; a local one: 1.7 per pop). Local solves keep one queue entry per
   // window, whose branches are predictable (batching made near pairs' solves 5-9% slower).
-  batch_halfedges_ = targets.empty() && max_distance_ == kInfinity && options.max_queue_pops == 0;
+  batch_halfedges_ = !targets_ && max_distance_ == kInfinity && options.max_queue_pops == 0;
   // Sized at the first full solve: the daemon's query solvers never make one.
   if (batch_halfedges_ && halfedge_queued_.empty()) {
     halfedge_queued_.assign(halfedge_state_.size(), QueuedHalfedge{kInfinity, 0, 0});
@@ -237,7 +258,7 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   bool stopped = false;
   while (!queue_.empty()) {
     const QueueEntry top = queue_.top();
-    if (!targets_.empty()) {
+    if (targets_) {
       // Only targets within max_distance count: beyond it nothing is final.
       // Windows not stored (store_limit) start at skipped_min_key_ or farther: nothing beyond
       // that is final.
@@ -285,7 +306,7 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
   }
   // Windows not stored start at skipped_min_key_ or farther: nothing from there on is final.
   radius_reached_ = std::min(radius_reached_, skipped_min_key_);
-  if (!stopped && !targets_.empty()) settle_targets_up_to(radius_reached_);
+  if (!stopped && targets_) settle_targets_up_to(radius_reached_);
   for (std::uint32_t v : touched_vertices_) {
     if (vertex_distance_[v] <= radius_reached_) ++stats_.vertices_reached;
   }
@@ -339,7 +360,7 @@ void ExactGeodesicSolver::seed_face_point(std::uint32_t source_index, double off
     relax_vertex(mesh_->face(face)[i], offset + length2(p.x - corner.x, p.y - corner.y), -1,
                  kViaSeedBase - seed_index, source_index);
   }
-  if (!targets_.empty()) update_targets_in_face(face);
+  if (targets_) update_targets_in_face(face);
   for (int i = 0; i < 3; ++i) {
     const std::uint32_t h = 3 * face + static_cast<std::uint32_t>(i);
     if (bary[(i + 2) % 3] <= 0) continue;  // the point is on this edge: no window across it
@@ -743,7 +764,10 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
     queue_.decrease(queued.bucket, queued.index,
                     QueueEntry{w.key, kHalfedgeItem | index, halfedge});
   }
-  if (!targets_.empty()) update_targets_in_face(TriangleMesh::face_of(halfedge));
+  // A window reaches only points of the face it enters (vertex targets hear from relax_vertex).
+  if (targets_ && targets_->face_targets_ > 0) {
+    update_targets_in_face(TriangleMesh::face_of(halfedge));
+  }
 }
 
 void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t index, double b0,
@@ -919,37 +943,47 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
 // ---------------------------------------------------------------------------------------------
 // Targets: estimates updated whenever a window or vertex of their face improves.
 
-void ExactGeodesicSolver::add_target(std::uint32_t index, const SurfacePoint& point) {
-  Target target{};
-  target.estimate = kInfinity;
-  target.settled = false;
-  target.in_nearest = false;
-  target.next = -1;
-  if (point.kind == SurfacePoint::Kind::Vertex) {
-    target.vertex = static_cast<std::int32_t>(point.id);
-    target.face = 0;
-    if (vertex_target_stamp_[point.id] != generation_) {
-      vertex_target_stamp_[point.id] = generation_;
-      vertex_first_target_[point.id] = -1;
-    }
-    target.next = vertex_first_target_[point.id];
-    vertex_first_target_[point.id] = static_cast<std::int32_t>(index);
-  } else {
-    auto [face, bary] = point.in_face(*mesh_);
-    target.vertex = -1;
-    target.face = face;
-    target.point = geometry_->face_point(face, bary.data());
-    ++face_targets_;
-    touch_face(face);
-    target.next = face_first_target_[face];
-    face_first_target_[face] = static_cast<std::int32_t>(index);
+void GeodesicTargets::assign(const IntrinsicGeometry& geometry,
+                             std::span<const SurfacePoint> points) {
+  const TriangleMesh& mesh = geometry.mesh();
+  for (const SurfacePoint& p : points) p.validate(mesh);
+  if (points.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
+    throw InvalidInput("TooManyTargets", std::to_string(points.size()) + " targets (at most 2^31 - 1)");
   }
-  targets_.push_back(target);
+  if (geometry_ != &geometry || vertex_first_.size() != mesh.num_vertices() ||
+      face_first_.size() != mesh.num_faces()) {
+    vertex_first_.assign(mesh.num_vertices(), -1);
+    face_first_.assign(mesh.num_faces(), -1);
+  } else {
+    for (const Entry& e : entries_) (e.vertex >= 0 ? vertex_first_[e.vertex] : face_first_[e.face]) = -1;
+  }
+  geometry_ = &geometry;
+  entries_.clear();
+  face_targets_ = 0;
+  for (const SurfacePoint& p : points) {
+    const auto index = static_cast<std::int32_t>(entries_.size());
+    Entry e{};
+    if (p.kind == SurfacePoint::Kind::Vertex) {
+      e.vertex = static_cast<std::int32_t>(p.id);
+      e.next = vertex_first_[p.id];
+      vertex_first_[p.id] = index;
+    } else {
+      const auto [face, bary] = p.in_face(mesh);
+      e.vertex = -1;
+      e.face = face;
+      e.point = geometry.face_point(face, bary.data());
+      e.next = face_first_[face];
+      face_first_[face] = index;
+      ++face_targets_;
+    }
+    entries_.push_back(e);
+  }
 }
 
 void ExactGeodesicSolver::improve_target(std::uint32_t index, double estimate) {
-  Target& t = targets_[index];
+  TargetState& t = target_state_[index];
   if (t.settled || !(estimate < t.estimate)) return;
+  if (t.estimate == kInfinity) touched_targets_.push_back(index);
   t.estimate = estimate;
   target_queue_.push_back({estimate, index});
   std::push_heap(target_queue_.begin(), target_queue_.end(), std::greater<>{});
@@ -960,8 +994,8 @@ void ExactGeodesicSolver::track_nearest(std::uint32_t index) {
   // nearest_targets_ holds the nearest_wanted_ targets of smallest estimate (distinct targets;
   // estimates only fall, so one outside the set never drops below the set's largest without
   // entering it). Once full, its largest estimate bounds where the solve stops.
-  Target& t = targets_[index];
-  auto worst = [&] { return targets_[nearest_targets_[nearest_worst_]].estimate; };
+  TargetState& t = target_state_[index];
+  auto worst = [&] { return target_state_[nearest_targets_[nearest_worst_]].estimate; };
   if (t.in_nearest) {
     // Until the set is full there is no bound (and nearest_worst_ is not maintained).
     if (nearest_targets_.size() < nearest_wanted_ || index != nearest_targets_[nearest_worst_]) {
@@ -972,7 +1006,7 @@ void ExactGeodesicSolver::track_nearest(std::uint32_t index) {
     nearest_targets_.push_back(index);
     if (nearest_targets_.size() < nearest_wanted_) return;
   } else if (t.estimate < worst()) {
-    targets_[nearest_targets_[nearest_worst_]].in_nearest = false;
+    target_state_[nearest_targets_[nearest_worst_]].in_nearest = false;
     t.in_nearest = true;
     nearest_targets_[nearest_worst_] = index;
   } else {
@@ -980,26 +1014,25 @@ void ExactGeodesicSolver::track_nearest(std::uint32_t index) {
   }
   nearest_worst_ = 0;
   for (std::size_t i = 1; i < nearest_targets_.size(); ++i) {
-    if (targets_[nearest_targets_[i]].estimate > worst()) nearest_worst_ = i;
+    if (target_state_[nearest_targets_[i]].estimate > worst()) nearest_worst_ = i;
   }
   // The solve stops once the queue reaches that estimate (or min_distance, or the radius).
   store_limit_ = std::min(max_distance_, std::max(worst(), min_distance_));
 }
 
 void ExactGeodesicSolver::update_targets_in_face(std::uint32_t face) {
-  if (face_stamp_[face] != generation_) return;
-  for (std::int32_t i = face_first_target_[face]; i >= 0; i = targets_[i].next) {
-    improve_target(static_cast<std::uint32_t>(i), best_in_face(face, targets_[i].point).distance);
+  const std::vector<GeodesicTargets::Entry>& entries = targets_->entries_;
+  for (std::int32_t i = targets_->face_first_[face]; i >= 0; i = entries[i].next) {
+    improve_target(static_cast<std::uint32_t>(i), best_in_face(face, entries[i].point).distance);
   }
 }
 
 void ExactGeodesicSolver::update_targets_at_vertex(std::uint32_t v) {
-  if (vertex_target_stamp_[v] == generation_) {
-    for (std::int32_t i = vertex_first_target_[v]; i >= 0; i = targets_[i].next) {
-      improve_target(static_cast<std::uint32_t>(i), vertex_distance_[v]);
-    }
+  const std::vector<GeodesicTargets::Entry>& entries = targets_->entries_;
+  for (std::int32_t i = targets_->vertex_first_[v]; i >= 0; i = entries[i].next) {
+    improve_target(static_cast<std::uint32_t>(i), vertex_distance_[v]);
   }
-  if (face_targets_ == 0) return;
+  if (targets_->face_targets_ == 0) return;
   for (std::uint32_t h : mesh_->outgoing_halfedges(v)) update_targets_in_face(h / 3);
 }
 
@@ -1008,7 +1041,7 @@ void ExactGeodesicSolver::settle_targets_up_to(double key) {
     const auto [estimate, index] = target_queue_.front();
     std::pop_heap(target_queue_.begin(), target_queue_.end(), std::greater<>{});
     target_queue_.pop_back();
-    Target& t = targets_[index];
+    TargetState& t = target_state_[index];
     if (t.settled || estimate != t.estimate) continue;
     t.settled = true;
     settled_targets_.push_back(index);

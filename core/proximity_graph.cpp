@@ -313,6 +313,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   }
   std::vector<SurfacePoint> targets(n);
   for (std::uint32_t i = 0; i < n; ++i) targets[i] = SurfacePoint::vertex(graph.sample_vertex[i]);
+  const GeodesicTargets prepared_targets(geometry, targets);  // shared by the threads' solvers
   std::vector<std::int32_t> sample_of_vertex(mesh.num_vertices(), -1);
   for (std::uint32_t i = 0; i < n; ++i) {
     sample_of_vertex[graph.sample_vertex[i]] = static_cast<std::int32_t>(i);
@@ -326,8 +327,9 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   {
     ExactGeodesicSolver solver(mesh, geometry);
     // A plain solve to the link radius finds the samples within it from the vertices it
-    // reaches (registering all n_P samples as targets of every solve would cost O(n_P^2));
-    // only where fewer than m_P lie within it does a second solve run to the m_P nearest.
+    // reaches; only where fewer than m_P lie within it does a second solve run to the m_P
+    // nearest (its targets prepared once: registering all n_P samples at every solve would
+    // cost O(n_P^2)).
     ExactGeodesicOptions to_radius;
     to_radius.max_distance = graph.link_radius;
     ExactGeodesicOptions to_neighbors;
@@ -348,7 +350,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
       }
       if (found.size() + 1 < to_neighbors.stop_after_targets) {
         // A sparse spot (or a small component): on to the m_P nearest samples.
-        solver.solve(std::span<const GeodesicSource>(&source, 1), targets, to_neighbors);
+        solver.solve(std::span<const GeodesicSource>(&source, 1), prepared_targets, to_neighbors);
         found.clear();
         for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
           const std::uint32_t j = solver.settled_targets()[k];

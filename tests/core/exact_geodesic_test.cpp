@@ -24,6 +24,7 @@
 #include <numbers>
 #include <optional>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -1208,6 +1209,45 @@ TEST(ExactGeodesicInput, InvalidSourcesThrow) {
   EXPECT_THROW((void)solver.distance(SurfacePoint::face(99999, 1, 0, 0)), InvalidInput);
 }
 
+std::string reason_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.reason();
+  }
+  return "(nothing thrown)";
+}
+
+TEST(ExactGeodesicInput, PreparedTargets) {
+  const TestMesh tm = jittered_grid(), other = jittered_grid();
+  const std::vector<SurfacePoint> bad_vertex{SurfacePoint::vertex(0), SurfacePoint::vertex(100000)};
+  EXPECT_EQ(reason_of([&] { GeodesicTargets t(*tm.geometry, bad_vertex); }), "VertexOutOfRange");
+  const std::vector<SurfacePoint> bad_face{SurfacePoint::face(1u << 30, 1, 0, 0)};
+  EXPECT_EQ(reason_of([&] { GeodesicTargets t(*tm.geometry, bad_face); }), "FaceOutOfRange");
+
+  const std::vector<SurfacePoint> points{SurfacePoint::vertex(7), SurfacePoint::face(3, 0.2, 0.3, 0.5)};
+  const GeodesicTargets prepared(*tm.geometry, points), elsewhere(*other.geometry, points);
+  EXPECT_EQ(prepared.size(), 2u);
+  ExactGeodesicSolver solver(*tm.mesh, *tm.geometry);
+  EXPECT_EQ(reason_of([&] { solver.solve(one(SurfacePoint::vertex(0)), elsewhere); }), "TargetsForAnotherMesh");
+  // An empty set is a solve without targets: the whole surface.
+  const GeodesicTargets none(*tm.geometry, std::vector<SurfacePoint>{});
+  EXPECT_TRUE(none.empty());
+  solver.solve(one(SurfacePoint::vertex(0)), none);
+  const std::vector<double> with_empty_set = solver.vertex_distances();
+  EXPECT_TRUE(solver.settled_targets().empty());
+  solver.solve(one(SurfacePoint::vertex(0)), {}, {});
+  EXPECT_EQ(with_empty_set, solver.vertex_distances());
+  for (double d : with_empty_set) EXPECT_LT(d, kInfinity);
+  // Both targets are settled, at their exact (Euclidean, on this flat grid) distances.
+  solver.solve(one(SurfacePoint::vertex(0)), prepared);
+  ASSERT_EQ(solver.settled_targets().size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const SurfacePoint& p = points[solver.settled_targets()[k]];
+    EXPECT_NEAR(solver.settled_target_distances()[k], dist(tm.mesh->position(0), p.position(*tm.mesh)), 1e-12);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Real meshes: invariants.
 
@@ -1688,6 +1728,84 @@ TEST_P(ExactGeodesicRealMesh, ReusedSolverMatchesFreshSolvers) {
     }
   }
   EXPECT_EQ(mismatches, 0) << "reused solver differs from a fresh one, first at " << first;
+}
+
+// Targets prepared once give what the same targets given to every solve give, whatever came
+// before on the same solver (another prepared set, targets given per solve, no targets), and one
+// set serves solvers on two threads at once.
+TEST_P(ExactGeodesicRealMesh, PreparedTargetsMatchTargetsGivenPerSolve) {
+  Rng rng(139);
+  const std::uint32_t nv = static_cast<std::uint32_t>(mesh().num_vertices());
+  std::vector<SurfacePoint> mixed, samples;
+  for (int k = 0; k < 300; ++k) {
+    if (k % 3 == 0) mixed.push_back(SurfacePoint::vertex(rng.below(nv)));
+    if (k % 3 == 1) mixed.push_back(SurfacePoint::edge(rng.below(static_cast<std::uint32_t>(mesh().num_edges())), rng.uniform()));
+    if (k % 3 == 2) mixed.push_back(random_face_point(mesh(), rng));
+  }
+  mixed.push_back(mixed[0]);  // the same vertex twice
+  mixed.push_back(mixed[2]);  // the same face point twice
+  for (int k = 0; k < 200; ++k) samples.push_back(SurfacePoint::vertex(rng.below(nv)));
+  const GeodesicTargets prepared_mixed(geometry(), mixed), prepared_samples(geometry(), samples);
+
+  struct Result {
+    std::vector<std::uint32_t> settled;
+    std::vector<double> distances, field;
+    double radius = 0;
+    bool operator==(const Result&) const = default;
+  };
+  auto result_of = [](const ExactGeodesicSolver& s) {
+    return Result{s.settled_targets(), s.settled_target_distances(), s.vertex_distances(), s.radius_reached()};
+  };
+  ExactGeodesicSolver reused(mesh(), geometry()), fresh(mesh(), geometry());
+  std::vector<std::vector<GeodesicSource>> sources;
+  std::vector<ExactGeodesicSolver::Options> options;
+  std::vector<Result> expected;
+  int mismatches = 0;
+  std::string first;
+  for (int k = 0; k < count(24, 12); ++k) {
+    const bool use_mixed = k % 2 == 0;
+    const std::vector<SurfacePoint>& points = use_mixed ? mixed : samples;
+    const GeodesicTargets& prepared = use_mixed ? prepared_mixed : prepared_samples;
+    sources.push_back(one(k % 3 ? random_face_point(mesh(), rng) : SurfacePoint::vertex(rng.below(nv))));
+    ExactGeodesicSolver::Options opt;
+    opt.stop_after_targets = std::array<std::size_t, 4>{1, 36, 7, 0}[static_cast<std::size_t>(k) % 4];
+    if (k % 5 == 4) opt.min_distance = 0.05 * scale();
+    options.push_back(opt);
+    fresh.solve(sources.back(), points, opt);
+    expected.push_back(result_of(fresh));
+    if (expected.back().settled.empty()) ADD_FAILURE() << "solve " << k << " settled no target";
+    // Before it, the reused solver ran a solve of another kind.
+    if (k % 3 == 0) reused.solve(one(SurfacePoint::vertex(rng.below(nv))), use_mixed ? samples : mixed, opt);
+    if (k % 3 == 1) reused.solve(one(SurfacePoint::vertex(rng.below(nv))), use_mixed ? prepared_samples : prepared_mixed, opt);
+    if (k % 3 == 2) reused.solve(SurfacePoint::vertex(rng.below(nv)));
+    reused.solve(sources.back(), prepared, opt);
+    if (!(result_of(reused) == expected.back())) {
+      ++mismatches;
+      if (first.empty()) first = "solve " + std::to_string(k) + " from " + sources.back()[0].point.to_string();
+    }
+    for (const SurfacePoint& p : points) {
+      if (reused.distance(p) != fresh.distance(p)) {
+        ++mismatches;
+        if (first.empty()) first = "distance(" + p.to_string() + ") after solve " + std::to_string(k);
+        break;
+      }
+    }
+  }
+  EXPECT_EQ(mismatches, 0) << "prepared targets differ from targets given per solve, first at " << first;
+
+  // Two threads, one set each way round.
+  std::vector<int> wrong(2, 0);
+  auto worker = [&](int id) {
+    ExactGeodesicSolver solver(mesh(), geometry());
+    for (std::size_t k = static_cast<std::size_t>(id); k < sources.size(); k += 2) {
+      solver.solve(sources[k], k % 2 == 0 ? prepared_mixed : prepared_samples, options[k]);
+      if (!(result_of(solver) == expected[k])) ++wrong[static_cast<std::size_t>(id)];
+    }
+  };
+  std::thread a(worker, 0), b(worker, 1);
+  a.join();
+  b.join();
+  EXPECT_EQ(wrong[0] + wrong[1], 0) << "solves sharing one prepared set across threads differ";
 }
 
 TEST_P(ExactGeodesicRealMesh, OneShotFunctionsMatchSolver) {
