@@ -110,6 +110,8 @@ ExactGeodesicSolver::ExactGeodesicSolver(const TriangleMesh& mesh,
   halfedge_state_.assign(3 * nf, HalfedgeState{0, -1});
   face_stamp_.assign(nf, 0);
   face_first_seed_.assign(nf, -1);
+  // Sized to the mesh now, so that no solve (a daemon query's) allocates in proportion to it.
+  own_targets_.assign(geometry, {});
 }
 
 void ExactGeodesicSolver::reset() {
@@ -221,9 +223,11 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
 void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
                                 const GeodesicTargets& targets, const Options& options) {
   check_solve_input(sources, options);
-  if (!targets.empty() && &targets.geometry_->mesh() != mesh_) {
-    throw InvalidInput("TargetsForAnotherMesh",
-                       "the targets were prepared for another mesh than the solver's");
+  // Face targets are placed in the frames of the geometry they were prepared with: the same
+  // mesh under another metric would put them elsewhere.
+  if (!targets.empty() && targets.geometry_ != geometry_) {
+    throw InvalidInput("TargetsForAnotherGeometry",
+                       "the targets were prepared for another mesh or metric than the solver's");
   }
   run(sources, targets.empty() ? nullptr : &targets, options);
 }
@@ -950,6 +954,8 @@ void GeodesicTargets::assign(const IntrinsicGeometry& geometry,
   if (points.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
     throw InvalidInput("TooManyTargets", std::to_string(points.size()) + " targets (at most 2^31 - 1)");
   }
+  // Before any change: a list head must never name an entry that a failed push left out.
+  entries_.reserve(points.size());
   if (geometry_ != &geometry || vertex_first_.size() != mesh.num_vertices() ||
       face_first_.size() != mesh.num_faces()) {
     vertex_first_.assign(mesh.num_vertices(), -1);

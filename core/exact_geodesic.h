@@ -150,7 +150,7 @@ class ExactGeodesicSolver {
   /// invalid source or target point, or a negative or non-finite offset.
   void solve(std::span<const GeodesicSource> sources, std::span<const SurfacePoint> targets = {},
              const Options& options = {});
-  /// The same with targets prepared once (they must be this solver's mesh's: InvalidInput
+  /// The same with targets prepared once, with this solver's geometry (InvalidInput
   /// otherwise). settled_targets() indexes them.
   void solve(std::span<const GeodesicSource> sources, const GeodesicTargets& targets,
              const Options& options = {});
@@ -405,8 +405,8 @@ class ExactGeodesicSolver {
   std::vector<Seed> seeds_;
   std::vector<GeodesicSource> sources_;
 
-  /// Targets given as a span are indexed here at every solve (sized to the mesh at the first
-  /// such solve).
+  /// Targets given as a span are indexed here at every solve (its index sized to the mesh by
+  /// the constructor).
   GeodesicTargets own_targets_{GeodesicTargets::Unset{}};
   const GeodesicTargets* targets_ = nullptr;  ///< the current solve's, or null: none
   struct TargetState {

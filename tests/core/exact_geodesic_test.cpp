@@ -1229,7 +1229,24 @@ TEST(ExactGeodesicInput, PreparedTargets) {
   const GeodesicTargets prepared(*tm.geometry, points), elsewhere(*other.geometry, points);
   EXPECT_EQ(prepared.size(), 2u);
   ExactGeodesicSolver solver(*tm.mesh, *tm.geometry);
-  EXPECT_EQ(reason_of([&] { solver.solve(one(SurfacePoint::vertex(0)), elsewhere); }), "TargetsForAnotherMesh");
+  EXPECT_EQ(reason_of([&] { solver.solve(one(SurfacePoint::vertex(0)), elsewhere); }), "TargetsForAnotherGeometry");
+  // The same mesh under another metric (every edge twice as long): face targets sit in other
+  // frames, so a set prepared with the embedding is refused there, and one prepared with the
+  // metric settles where the targets given per solve do.
+  std::vector<double> doubled = tm.geometry->edge_lengths();
+  for (double& l : doubled) l *= 2;
+  const IntrinsicGeometry metric(*tm.mesh, doubled);
+  ExactGeodesicSolver metric_solver(*tm.mesh, metric);
+  EXPECT_EQ(reason_of([&] { metric_solver.solve(one(SurfacePoint::vertex(0)), prepared); }), "TargetsForAnotherGeometry");
+  metric_solver.solve(one(SurfacePoint::vertex(0)), points);
+  const std::vector<double> per_solve = metric_solver.settled_target_distances();
+  metric_solver.solve(one(SurfacePoint::vertex(0)), GeodesicTargets(metric, points));
+  EXPECT_EQ(metric_solver.settled_target_distances(), per_solve);
+  ASSERT_EQ(per_solve.size(), 2u);
+  EXPECT_NEAR(per_solve[1], 2 * dist(tm.mesh->position(0), points[metric_solver.settled_targets()[1]].position(*tm.mesh)), 1e-12);
+  // A span with a bad point leaves the solver's own set as it was: the next solve is right.
+  const std::vector<SurfacePoint> half_bad{SurfacePoint::vertex(3), SurfacePoint::face(3, 0.5, 0.6, 0.1)};
+  EXPECT_EQ(reason_of([&] { solver.solve(one(SurfacePoint::vertex(0)), half_bad); }), "BadBarycentric");
   // An empty set is a solve without targets: the whole surface.
   const GeodesicTargets none(*tm.geometry, std::vector<SurfacePoint>{});
   EXPECT_TRUE(none.empty());
@@ -1240,6 +1257,8 @@ TEST(ExactGeodesicInput, PreparedTargets) {
   EXPECT_EQ(with_empty_set, solver.vertex_distances());
   for (double d : with_empty_set) EXPECT_LT(d, kInfinity);
   // Both targets are settled, at their exact (Euclidean, on this flat grid) distances.
+  solver.solve(one(SurfacePoint::vertex(0)), points);
+  EXPECT_EQ(solver.settled_targets().size(), 2u);
   solver.solve(one(SurfacePoint::vertex(0)), prepared);
   ASSERT_EQ(solver.settled_targets().size(), 2u);
   for (std::size_t k = 0; k < 2; ++k) {
@@ -1756,7 +1775,7 @@ TEST_P(ExactGeodesicRealMesh, PreparedTargetsMatchTargetsGivenPerSolve) {
   auto result_of = [](const ExactGeodesicSolver& s) {
     return Result{s.settled_targets(), s.settled_target_distances(), s.vertex_distances(), s.radius_reached()};
   };
-  ExactGeodesicSolver reused(mesh(), geometry()), fresh(mesh(), geometry());
+  ExactGeodesicSolver reused(mesh(), geometry());
   std::vector<std::vector<GeodesicSource>> sources;
   std::vector<ExactGeodesicSolver::Options> options;
   std::vector<Result> expected;
@@ -1771,6 +1790,7 @@ TEST_P(ExactGeodesicRealMesh, PreparedTargetsMatchTargetsGivenPerSolve) {
     opt.stop_after_targets = std::array<std::size_t, 4>{1, 36, 7, 0}[static_cast<std::size_t>(k) % 4];
     if (k % 5 == 4) opt.min_distance = 0.05 * scale();
     options.push_back(opt);
+    ExactGeodesicSolver fresh(mesh(), geometry());
     fresh.solve(sources.back(), points, opt);
     expected.push_back(result_of(fresh));
     if (expected.back().settled.empty()) ADD_FAILURE() << "solve " << k << " settled no target";
@@ -1793,11 +1813,12 @@ TEST_P(ExactGeodesicRealMesh, PreparedTargetsMatchTargetsGivenPerSolve) {
   }
   EXPECT_EQ(mismatches, 0) << "prepared targets differ from targets given per solve, first at " << first;
 
-  // Two threads, one set each way round.
+  // Two threads, both using both sets, in opposite orders.
   std::vector<int> wrong(2, 0);
   auto worker = [&](int id) {
     ExactGeodesicSolver solver(mesh(), geometry());
-    for (std::size_t k = static_cast<std::size_t>(id); k < sources.size(); k += 2) {
+    for (std::size_t i = 0; i < sources.size(); ++i) {
+      const std::size_t k = id == 0 ? i : sources.size() - 1 - i;
       solver.solve(sources[k], k % 2 == 0 ? prepared_mixed : prepared_samples, options[k]);
       if (!(result_of(solver) == expected[k])) ++wrong[static_cast<std::size_t>(id)];
     }
