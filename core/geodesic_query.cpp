@@ -66,11 +66,9 @@ struct PairAnswer {
 };
 
 struct QueryScratch::Impl {
-  Impl(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
-       const std::vector<SurfacePoint>& sample_points, std::uint32_t num_samples)
+  Impl(const TriangleMesh& mesh, const IntrinsicGeometry& geometry, std::uint32_t num_samples)
       : solver_s(mesh, geometry),
         solver_t(mesh, geometry),
-        targets(sample_points),
         stamp(num_samples, 0),
         label{std::vector<double>(num_samples), std::vector<double>(num_samples)},
         parent{std::vector<std::int32_t>(num_samples), std::vector<std::int32_t>(num_samples)},
@@ -114,7 +112,6 @@ struct QueryScratch::Impl {
   }
 
   ExactGeodesicSolver solver_s, solver_t;
-  std::vector<SurfacePoint> targets;  ///< every sample (the link solves' targets)
   std::uint32_t generation = 0;
   std::vector<std::uint32_t> stamp;
   std::vector<double> label[2];
@@ -183,6 +180,7 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
     sample_of_vertex_[graph.sample_vertex[i]] = static_cast<std::int32_t>(i);
     sample_points_.push_back(SurfacePoint::vertex(graph.sample_vertex[i]));
   }
+  sample_targets_.emplace(geometry, sample_points_);
   bbox_diagonal_ = bounding_box_diagonal(mesh);
   mean_edge_length_ = geometry.mean_edge_length();
   for (const double length : geometry.edge_lengths()) {
@@ -221,8 +219,7 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
 GeodesicQuery::~GeodesicQuery() = default;
 
 QueryScratch GeodesicQuery::make_scratch() const {
-  return QueryScratch(std::make_unique<QueryScratch::Impl>(*mesh_, *geometry_, sample_points_,
-                                                           graph_.num_samples));
+  return QueryScratch(std::make_unique<QueryScratch::Impl>(*mesh_, *geometry_, graph_.num_samples));
 }
 
 SurfacePoint GeodesicQuery::sample_point(std::uint32_t sample) const {
@@ -386,7 +383,7 @@ void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
     nearest.stop_after_targets = 1;
     nearest.interrupt = s.interrupt;
     const GeodesicSource source{p, 0.0};
-    solver.solve(std::span<const GeodesicSource>(&source, 1), s.targets, nearest);
+    solver.solve(std::span<const GeodesicSource>(&source, 1), *sample_targets_, nearest);
     for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
       const double d = solver.settled_target_distances()[k];
       out.samples.emplace_back(solver.settled_targets()[k], d);

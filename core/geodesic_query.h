@@ -34,6 +34,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -270,6 +271,8 @@ class GeodesicQuery {
   double link_radius_ = 0;
   std::vector<std::int32_t> sample_of_vertex_;  ///< sample index per vertex, or -1
   std::vector<SurfacePoint> sample_points_;
+  /// Every sample, prepared once for the solves to the nearest ones (shared by all scratches).
+  std::optional<GeodesicTargets> sample_targets_;
   std::vector<Vec3> sample_positions_;
   bool euclidean_lower_bound_ = false;  ///< edge lengths are the positions' (see search)
   double bbox_diagonal_ = 0;
