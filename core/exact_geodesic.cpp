@@ -212,12 +212,8 @@ void ExactGeodesicSolver::check_solve_input(std::span<const GeodesicSource> sour
 void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
                                 std::span<const SurfacePoint> targets, const Options& options) {
   check_solve_input(sources, options);
-  if (targets.empty()) {
-    run(sources, nullptr, options);
-    return;
-  }
   own_targets_.assign(*geometry_, targets);  // validates the targets first
-  run(sources, &own_targets_, options);
+  run(sources, own_targets_, options);
 }
 
 void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
@@ -229,16 +225,16 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
     throw InvalidInput("TargetsForAnotherGeometry",
                        "the targets were prepared for another mesh or metric than the solver's");
   }
-  run(sources, targets.empty() ? nullptr : &targets, options);
+  run(sources, targets, options);
 }
 
 void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
-                              const GeodesicTargets* targets, const Options& options) {
+                              const GeodesicTargets& targets, const Options& options) {
   reset();
   sources_.assign(sources.begin(), sources.end());
   // Targets are in place before seeding so that seeds already update their estimates.
-  targets_ = targets;
-  const std::size_t num_targets = targets ? targets->size() : 0;
+  targets_ = targets.empty() ? nullptr : &targets;
+  const std::size_t num_targets = targets.size();
   if (target_state_.size() < num_targets) target_state_.resize(num_targets);
   targets_wanted_ = options.stop_after_targets == 0
                         ? num_targets
@@ -956,8 +952,7 @@ void GeodesicTargets::assign(const IntrinsicGeometry& geometry,
   }
   // Before any change: a list head must never name an entry that a failed push left out.
   entries_.reserve(points.size());
-  if (geometry_ != &geometry || vertex_first_.size() != mesh.num_vertices() ||
-      face_first_.size() != mesh.num_faces()) {
+  if (geometry_ != &geometry) {
     vertex_first_.assign(mesh.num_vertices(), -1);
     face_first_.assign(mesh.num_faces(), -1);
   } else {

@@ -298,8 +298,8 @@ class ExactGeodesicSolver {
   struct Candidate;
 
   void check_solve_input(std::span<const GeodesicSource> sources, const Options& options) const;
-  /// The solve itself, inputs checked; targets null when there are none.
-  void run(std::span<const GeodesicSource> sources, const GeodesicTargets* targets,
+  /// The solve itself, inputs checked (targets may be empty).
+  void run(std::span<const GeodesicSource> sources, const GeodesicTargets& targets,
            const Options& options);
   void reset();
   void touch_face(std::uint32_t face);
