@@ -54,6 +54,18 @@ inline float round_up_to_float(double x) { return -round_down_to_float(-x); }
 
 }  // namespace
 
+// The functions that create windows (propagate, and the two that call it or emit a
+// pseudo-source's windows) have everything they call inlined: creating, trimming, listing and
+// queueing a child, relaxing a corner. Every XMM register is caller-saved, so each of those
+// calls spilled and reloaded the caller's live doubles. Alternated rounds of
+// exact_geodesic_bench on lucy and horse: full solves 7-10% faster, bounded solves 6%.
+// Flattening run() as well (the whole loop in one function) was slower than this.
+#if defined(__GNUC__)
+#define GEOPROX_INLINE_CALLEES [[gnu::flatten]]
+#else
+#define GEOPROX_INLINE_CALLEES
+#endif
+
 // Length of the path from a window's source to point (px, py) of the face it enters, whose
 // straight line would cross the edge at `x`. Inside the interval that is the straight line; a
 // point seen only within the visibility slack is reached through the interval's nearer end, so
@@ -417,6 +429,7 @@ double ExactGeodesicSolver::incoming_angle(std::uint32_t v, std::uint32_t& fan_s
   return angle_in_corner;
 }
 
+GEOPROX_INLINE_CALLEES
 void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
   vertex_emitted_[v] = 1;
   const double d = vertex_distance_[v];
@@ -798,6 +811,7 @@ void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t inde
   chunk.window[slot] = static_cast<std::int32_t>(index);
 }
 
+GEOPROX_INLINE_CALLEES
 void ExactGeodesicSolver::propagate_halfedge(std::uint32_t h, double key) {
   GEOPROX_ASSERT(halfedge_queued_[h].key == key, "a halfedge's queue entry is out of date");
   halfedge_queued_[h].key = kInfinity;
@@ -847,6 +861,7 @@ void ExactGeodesicSolver::propagate_halfedge(std::uint32_t h, double key) {
   for (const auto& entry : batch_) propagate(entry.second);
 }
 
+GEOPROX_INLINE_CALLEES
 void ExactGeodesicSolver::propagate(std::uint32_t index) {
   Window w = windows_[index];
   if (w.key == kInfinity) return;  // dropped since it was queued (it is queued only once)

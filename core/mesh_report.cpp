@@ -212,7 +212,8 @@ std::string format_mesh_report(const MeshReport& report) {
   std::string genus;
   constexpr std::size_t kMaxListed = 20;
   for (std::size_t c = 0; c < report.genus_per_component.size() && c < kMaxListed; ++c) {
-    genus += (c ? " " : "") + std::to_string(report.genus_per_component[c]);
+    if (c > 0) genus += ' ';
+    genus += std::to_string(report.genus_per_component[c]);
   }
   if (report.genus_per_component.size() > kMaxListed) {
     genus += " ... (" + std::to_string(report.genus_per_component.size() - kMaxListed) + " more)";
