@@ -255,10 +255,12 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
   min_distance_ = options.min_distance;
   store_limit_ = max_distance_;
   // Halfedges collect many waiting windows only when the wavefront is wide (a full solve on
-  // horse.ply: 19 per batch; a local one: 1.7 per pop). Local solves keep one queue entry per
-  // window, whose branches are predictable (batching made near pairs' solves 5-9% slower).
-  batch_halfedges_ = !targets_ && max_distance_ == kInfinity && options.max_queue_pops == 0;
-  // Sized at the first full solve: the daemon's query solvers never make one.
+  // horse.ply: 19 per batch; the 36 nearest of 5000 samples on lucy.obj: 3 per pop). Other
+  // solves keep one queue entry per window unless asked (batching made the near pairs'
+  // solves of queries 5-9% slower).
+  const bool full_solve = !targets_ && max_distance_ == kInfinity;
+  batch_halfedges_ = (full_solve || options.queue_halfedges) && options.max_queue_pops == 0;
+  // Sized at the first batched solve: the daemon's query solvers never make one.
   if (batch_halfedges_ && halfedge_queued_.empty()) {
     halfedge_queued_.assign(halfedge_state_.size(), QueuedHalfedge{kInfinity, 0, 0});
   }

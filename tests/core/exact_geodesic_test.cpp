@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -1471,14 +1472,26 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
     std::sort(sorted.begin(), sorted.end());
     // Radii halfway between two consecutive vertex distances (no vertex sits on the bound):
     // about 20 vertices, 1% of them, and 30%.
-    for (std::size_t rank : {std::size_t{20}, sorted.size() / 100, sorted.size() * 3 / 10}) {
+    // Each radius with one queue entry per window, then with halfedges queued.
+    std::size_t per_window_pops = 0;
+    for (std::size_t run = 0; run < 6; ++run) {
+      std::size_t rank = std::array<std::size_t, 3>{20, sorted.size() / 100, sorted.size() * 3 / 10}[run / 2];
       rank = std::clamp<std::size_t>(rank, 1, sorted.size() - 1);
       const double r = 0.5 * (sorted[rank - 1] + sorted[rank]);
       ExactGeodesicSolver::Options opt;
       opt.max_distance = r;
+      opt.queue_halfedges = run % 2 == 1;
       bounded.solve(one(s), {}, opt);
       beyond_stop += bounded.stats().windows_beyond_stop;
-      const std::string ctx = "from " + s.to_string() + ", R = " + fmt(r);
+      const std::string ctx = "from " + s.to_string() + ", R = " + fmt(r) +
+                              (opt.queue_halfedges ? ", halfedges queued" : "");
+      if (!opt.queue_halfedges) {
+        per_window_pops = bounded.stats().queue_pops;
+      } else if (run == 5 && !(bounded.stats().queue_pops < per_window_pops)) {
+        // The widest disk: a halfedge's waiting windows go together, in fewer pops.
+        tally.fail(ctx + ": " + std::to_string(bounded.stats().queue_pops) + " pops, against " +
+                   std::to_string(per_window_pops) + " with one entry per window");
+      }
       if (!(bounded.radius_reached() >= r * (1 - 1e-12))) {
         tally.fail(ctx + ": radius_reached() = " + fmt(bounded.radius_reached()) + " < R");
       }
@@ -1620,12 +1633,16 @@ TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
     std::vector<std::pair<double, std::uint32_t>> truth;
     for (std::uint32_t i = 0; i < targets.size(); ++i) truth.push_back({full.distance(targets[i]), i});
     std::sort(truth.begin(), truth.end());
-    for (std::size_t k : {std::size_t{1}, std::size_t{36}, std::size_t{100}, targets.size()}) {
+    for (std::size_t run = 0; run < 8; ++run) {
+      // Each K with one queue entry per window, then with halfedges queued.
+      const std::size_t k = std::array<std::size_t, 4>{1, 36, 100, targets.size()}[run / 2];
       ExactGeodesicSolver::Options opt;
       opt.stop_after_targets = k;
+      opt.queue_halfedges = run % 2 == 1;
       local.solve(one(s), targets, opt);
       if (k == 36) beyond_stop += local.stats().windows_beyond_stop;
-      const std::string ctx = "from " + s.to_string() + ", K = " + std::to_string(k);
+      const std::string ctx = "from " + s.to_string() + ", K = " + std::to_string(k) +
+                              (opt.queue_halfedges ? ", halfedges queued" : "");
       const auto& settled = local.settled_targets();
       const auto& sd = local.settled_target_distances();
       if (settled.size() != k || sd.size() != k) {
@@ -1732,6 +1749,8 @@ TEST_P(ExactGeodesicRealMesh, ReusedSolverMatchesFreshSolvers) {
       tg = targets;
       opt.stop_after_targets = 36;
     }
+    // Bounded solves with and without halfedges queued (a stopped solve leaves some queued).
+    opt.queue_halfedges = k % 4 >= 2;
     reused.solve(sources, tg, opt);
     ExactGeodesicSolver fresh(mesh(), geometry());
     fresh.solve(sources, tg, opt);
