@@ -368,8 +368,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     // A plain solve to the link radius finds the samples within it from the vertices it
     // reaches; only where fewer than m_P lie within it does a second solve run to the m_P
     // nearest (its targets prepared once: registering all n_P samples at every solve would
-    // cost O(n_P^2)).
-    // Both solves are several edges wide: halfedges queued (ExactGeodesicOptions).
+    // cost O(n_P^2)). Both are several edges wide, so they queue halfedges.
     ExactGeodesicOptions to_radius;
     to_radius.max_distance = graph.link_radius;
     to_radius.queue_halfedges = true;
