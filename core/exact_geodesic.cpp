@@ -792,6 +792,13 @@ void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t inde
     state.stamp = generation_;
     state.first_chunk = -1;
     if (batch_halfedges_) halfedge_queued_[halfedge].key = kInfinity;
+    // The faces beyond, which propagating this halfedge will enter, start loading now, long
+    // before it is popped: propagate_halfedge then finds their records and can prefetch
+    // their far corners' distances, which it needs those records to find.
+    const HalfedgeCrossing& crossing = geometry_->crossing(halfedge);
+    for (const std::int32_t t : {crossing.twin_prev, crossing.twin_next}) {
+      if (t >= 0) __builtin_prefetch(&geometry_->crossing(static_cast<std::uint32_t>(t)));
+    }
   }
   std::int32_t head = state.first_chunk;
   int slot = head >= 0 ? chunks_[head].used() : SpanChunk::kCapacity;
@@ -830,9 +837,12 @@ void ExactGeodesicSolver::propagate_halfedge(std::uint32_t h, double key) {
   const HalfedgeCrossing& crossing = geometry_->crossing(h);
   for (const std::int32_t t : {crossing.twin_prev, crossing.twin_next}) {
     if (t >= 0) {
-      __builtin_prefetch(&geometry_->crossing(static_cast<std::uint32_t>(t)));
-      __builtin_prefetch(&halfedge_state_[static_cast<std::uint32_t>(t)]);
-      __builtin_prefetch(&halfedge_queued_[static_cast<std::uint32_t>(t)]);
+      const auto into = static_cast<std::uint32_t>(t);
+      // The face's record was requested when the halfedge got its first window (list_window);
+      // its far corner's distance, which trimming the children reads, is requested now.
+      __builtin_prefetch(&vertex_distance_[geometry_->crossing(into).opposite]);
+      __builtin_prefetch(&halfedge_state_[into]);
+      __builtin_prefetch(&halfedge_queued_[into]);
     }
   }
   const std::int32_t first = first_chunk(h);
