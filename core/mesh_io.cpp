@@ -227,6 +227,9 @@ struct FileScan {
   std::vector<Vec3> positions;  ///< as exact as the file: its digits, doubles, or STL's floats
   std::vector<Triangle> faces;
   std::vector<std::size_t> face_lines;  ///< line of each face record (0 if binary)
+  /// The faces were unrolled from PLY triangle strips, which OpenMesh does not read: it is
+  /// checked on the vertices only.
+  bool faces_from_strips = false;
 };
 
 /// Refuses non-finite values (NonFiniteCoordinate, as TriangleMesh would, but naming the line)
@@ -745,9 +748,11 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
 
   const PlyElement* vertex_element = nullptr;
   const PlyElement* face_element = nullptr;
+  const PlyElement* strip_element = nullptr;
   for (const PlyElement& element : elements) {
     if (element.name == "vertex") vertex_element = &element;
     if (element.name == "face") face_element = &element;
+    if (element.name == "tristrips") strip_element = &element;
   }
   if (!vertex_element) throw_parse_error(path, 0, "the PLY file has no vertex element");
   for (const char* axis : {"x", "y", "z"}) {
@@ -757,18 +762,18 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
                         std::string("the PLY vertex element has no '") + axis + "' property");
     }
   }
-  if (!face_element) {
-    const bool strips = std::any_of(elements.begin(), elements.end(),
-                                    [](const PlyElement& e) { return e.name == "tristrips"; });
-    if (strips) {
-      throw FileError("UnsupportedFormat", path +
-                                               ": PLY triangle strips (element tristrips) "
-                                               "are not supported; store faces instead");
+  if (face_element && strip_element) {
+    throw FileError("UnsupportedFormat",
+                    path + ": the PLY file has both faces and triangle strips (elements face "
+                           "and tristrips); keep one of them");
+  }
+  for (const PlyElement* element : {face_element, strip_element}) {
+    if (element && element->count > 0 &&
+        std::none_of(element->properties.begin(), element->properties.end(),
+                     is_face_index_list)) {
+      throw_parse_error(path, 0,
+                        "the PLY " + element->name + " element has no vertex_indices list");
     }
-  } else if (face_element->count > 0 &&
-             std::none_of(face_element->properties.begin(), face_element->properties.end(),
-                          is_face_index_list)) {
-    throw_parse_error(path, 0, "the PLY face element has no vertex_indices list");
   }
 
   FileScan scan;
@@ -805,9 +810,11 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
   // Do not trust the header's counts with memory before the records are there.
   scan.positions.reserve(std::min(vertex_element->count, text.size() / 6));
   scan.faces.reserve(std::min(face_element ? face_element->count : 0, text.size() / 8));
+  scan.faces_from_strips = strip_element != nullptr;
   for (const PlyElement& element : elements) {
     const bool is_vertex = &element == vertex_element;
     const bool is_face = &element == face_element;
+    const bool is_strip = &element == strip_element;
     for (std::size_t i = 0; i < element.count; ++i) {
       double xyz[3] = {0, 0, 0};
       std::size_t record_line = 0;
@@ -827,6 +834,31 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
           throw_parse_error(path, values.line(),
                             element.name + " " + std::to_string(i) + ": negative list length " +
                                 PlyValueReader::text_of(value, value_text));
+        }
+        if (is_strip && is_face_index_list(property)) {
+          // Unrolled by the rule of core/mesh_io.h.
+          std::size_t length = 0;  // of the current strip
+          std::uint32_t last[2] = {0, 0};
+          for (long long k = 0; k < count; ++k) {
+            const long long index = next_integer(property.type, element, i, "a vertex index");
+            if (index == -1) {
+              length = 0;
+              continue;
+            }
+            const std::uint32_t v = checked_index(index, scan.faces.size(), path, values.line());
+            if (length >= 2) {
+              Triangle t{last[0], last[1], v};
+              if (length % 2 == 1) std::swap(t[0], t[1]);  // triangle `length - 2` is odd
+              if (t[0] != t[1] && t[1] != t[2] && t[2] != t[0]) {
+                scan.faces.push_back(t);
+                scan.face_lines.push_back(record_line);
+              }
+            }
+            last[0] = last[1];
+            last[1] = v;
+            ++length;
+          }
+          continue;
         }
         const bool corners = is_face && is_face_index_list(property);
         if (corners && count != 3) {
@@ -1197,10 +1229,11 @@ void cross_check(const FileScan& scan, const RawMeshRecorder& recorder, Format f
                        "OpenMesh read " + std::to_string(recorder.positions.size()) +
                            " vertices, the file has " + std::to_string(scan.vertex_count));
   }
-  if (recorder.face_count() != scan.face_count) {
+  const std::size_t openmesh_faces = scan.faces_from_strips ? 0 : scan.face_count;
+  if (recorder.face_count() != openmesh_faces) {
     throw_disagreement(path, format,
                        "OpenMesh read " + std::to_string(recorder.face_count()) +
-                           " faces, the file has " + std::to_string(scan.face_count));
+                           " faces, the file has " + std::to_string(openmesh_faces));
   }
   for (std::size_t v = 0; v < scan.vertex_count; ++v) {
     const Vec3& a = recorder.positions[v];
@@ -1211,7 +1244,7 @@ void cross_check(const FileScan& scan, const RawMeshRecorder& recorder, Format f
                              " in the file but OpenMesh read " + describe_point(a.x, a.y, a.z));
     }
   }
-  for (std::size_t f = 0; f < scan.face_count; ++f) {
+  for (std::size_t f = 0; f < openmesh_faces; ++f) {
     const Triangle& t = scan.faces[f];
     const std::size_t start = recorder.face_starts[f];
     const bool same =

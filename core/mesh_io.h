@@ -6,6 +6,12 @@
 // vertex) makes loading fail with a MeshError naming that face and its vertex ids.
 //  - STL: duplicated corners (bit-identical coordinates) are welded, in order of first use.
 //  - Polygons with more than three corners are refused (NonTriangleFace) naming the face.
+//  - PLY triangle strips (element `tristrips`, list `vertex_indices`, as Stanford's scans and
+//    igea.ply store them; OpenMesh reads only their vertices) are unrolled here: strip
+//    s0 s1 s2 s3 ... gives (s0 s1 s2), (s2 s1 s3), (s2 s3 s4), ... (every other triangle
+//    turned round, to keep the strip's orientation); -1 ends a strip, every record starts one,
+//    and triangles that repeat a vertex (the joins of stitched strips) are dropped. Face ids
+//    are the kept triangles in that order. A file with both faces and strips is refused.
 //  - Missing/unreadable/unparseable files throw FileError (FileNotFound, UnsupportedFormat,
 //    ParseError).
 #pragma once

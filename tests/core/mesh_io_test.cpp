@@ -143,8 +143,20 @@ TEST(MeshIo, DirtySharedMeshesAreRefusedOrLoadAsDocumented) {
                             {"truck.obj", "face 2081 (vertices 284 248 254)", "face 1621"});
   // README: "dirty: 4 components, non-manifold vertices, open".
   expect_refusal<MeshError>(shared + "/teapot.obj", "NonManifoldVertex", {"teapot.obj", "vertex "});
-  // README: a binary PLY holding one tristrips element.
-  expect_refusal<FileError>(shared + "/igea.ply", "UnsupportedFormat", {"tristrips"});
+  // README: igea.off is igea.ply (one tristrips element) unrolled by the rule load_mesh uses.
+  const TriangleMesh strips = load_mesh(shared + "/igea.ply");
+  const TriangleMesh unrolled = load_mesh(shared + "/igea.off");
+  EXPECT_EQ(strips.num_faces(), 268686u);
+  EXPECT_EQ(strips.faces(), unrolled.faces());
+  ASSERT_EQ(strips.num_vertices(), unrolled.num_vertices());
+  std::size_t moved = 0;  // igea.off prints the PLY's floats to 9 digits: the same floats
+  for (std::uint32_t v = 0; v < strips.num_vertices(); ++v) {
+    const Vec3 &a = strips.position(v), &b = unrolled.position(v);
+    moved += static_cast<float>(a.x) != static_cast<float>(b.x) ||
+             static_cast<float>(a.y) != static_cast<float>(b.y) ||
+             static_cast<float>(a.z) != static_cast<float>(b.z);
+  }
+  EXPECT_EQ(moved, 0u);
   // README: 1113 unreferenced vertices, kept with their ids.
   const TriangleMesh bunny = load_mesh(shared + "/stanford-bunny.obj");
   EXPECT_EQ(bunny.num_vertices(), 35947u);
@@ -174,6 +186,53 @@ TEST(MeshIo, AsciiAndBinaryPlyGiveIdenticalMeshes) {
   EXPECT_EQ(ascii.face(7), (Triangle{0, 3, 5}));
   EXPECT_EQ(ascii.position(1).x, -1.0);
   EXPECT_EQ(ascii.num_edges(), 12u);
+}
+
+TEST(MeshIo, PlyTriangleStripsUnrollInStripOrder) {
+  // tests/data/make_binary_files.py: a 3 x 3 grid as two strips, the first stitched with
+  // degenerate joins (0 3 1 4 4 1 1 4 2 5), the second split by -1 (3 6 4 7 -1 4 7 5 8). Every
+  // other triangle of a strip is turned round; those repeating a vertex are dropped.
+  const std::vector<Triangle> expected = {{0, 3, 1}, {1, 3, 4}, {1, 4, 2}, {2, 4, 5},
+                                          {3, 6, 4}, {4, 6, 7}, {4, 7, 5}, {5, 7, 8}};
+  for (const char* name : {"strips.ply", "strips_binary.ply"}) {
+    SCOPED_TRACE(name);
+    const TriangleMesh mesh = load_mesh(test_file(name));
+    ASSERT_EQ(mesh.num_vertices(), 9u);
+    EXPECT_EQ(mesh.faces(), expected);
+    EXPECT_EQ(mesh.num_edges(), 16u);  // one consistently oriented disk
+    EXPECT_EQ(mesh.position(7).x, 1.0);
+    EXPECT_EQ(mesh.position(7).y, 2.0);
+  }
+}
+
+TEST(MeshIoRefusal, BadPlyTriangleStrips) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\n";
+  const std::string vertices = "0 0 0\n1 0 0\n0 1 0\n1 1 0\n";
+  const std::string strips = "element tristrips 1\nproperty list int int vertex_indices\n";
+  auto file = [](const std::string& name, const std::string& text) {
+    const std::string path = ::testing::TempDir() + "geoprox-" + name + ".ply";
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  };
+  // Faces and strips together: which would come first is a guess, so neither is.
+  expect_refusal<FileError>(
+      file("faces-and-strips",
+           header + "element face 1\nproperty list uchar int vertex_indices\n" + strips +
+               "end_header\n" + vertices + "3 0 1 2\n4 0 2 1 3\n"),
+      "UnsupportedFormat", {"faces-and-strips.ply", "both faces and triangle strips"});
+  // Only -1 separates strips; other negative indices are errors naming the triangle.
+  expect_refusal<MeshError>(file("strip-negative", header + strips + "end_header\n" + vertices +
+                                                       "5 0 1 2 -2 3\n"),
+                            "VertexOutOfRange", {"face 1 refers to vertex -2"});
+  expect_refusal<MeshError>(
+      file("strip-out-of-range", header + strips + "end_header\n" + vertices + "4 0 2 1 9\n"),
+      "VertexOutOfRange", {"face 1 (vertices 1 2 9) refers to vertex 9", "4 vertices"});
+  expect_refusal<FileError>(
+      file("strip-no-indices", header + "element tristrips 1\nproperty list int int corners\n" +
+                                   "end_header\n" + vertices + "3 0 1 2\n"),
+      "ParseError", {"tristrips element has no vertex_indices list"});
 }
 
 TEST(MeshIo, StlCornersWeldInOrderOfFirstUse) {

@@ -12,6 +12,9 @@ cut_binary.ply: octahedron_binary.ply cut 26 bytes short, inside its face lists:
 the smallest records its header allows.
 comment_before_end_header.ply: octahedron_binary.ply with its comment moved to the line before
 end_header, which makes OpenMesh 9's reader read the data one byte off.
+strips.ply / strips_binary.ply: a 3 x 3 grid of vertices as two triangle strips (element
+tristrips, as Stanford's scans store them): the first row stitched with degenerate joins, the
+second split by -1. Both unroll to the same 8 triangles.
 """
 import struct
 
@@ -64,6 +67,29 @@ def write_quad_ply():
         out.write(struct.pack("<B4i", 4, 0, 1, 2, 3))
 
 
+GRID_VERTICES = [(x, y, 0) for y in range(3) for x in range(3)]
+GRID_STRIPS = [[0, 3, 1, 4, 4, 1, 1, 4, 2, 5], [3, 6, 4, 7, -1, 4, 7, 5, 8]]
+
+
+def write_strips():
+    header = ("ply\nformat {} 1.0\ncomment geoprox test data\nelement vertex {}\n"
+              "property float x\nproperty float y\nproperty float z\nelement tristrips {}\n"
+              "property list int int vertex_indices\nend_header\n")
+    with open("strips.ply", "w") as out:
+        out.write(header.format("ascii", len(GRID_VERTICES), len(GRID_STRIPS)))
+        for v in GRID_VERTICES:
+            out.write("%g %g %g\n" % v)
+        for strip in GRID_STRIPS:
+            out.write(" ".join(str(i) for i in [len(strip)] + strip) + "\n")
+    with open("strips_binary.ply", "wb") as out:
+        out.write(header.format("binary_little_endian", len(GRID_VERTICES),
+                                len(GRID_STRIPS)).encode())
+        for v in GRID_VERTICES:
+            out.write(struct.pack("<3f", *v))
+        for strip in GRID_STRIPS:
+            out.write(struct.pack("<%di" % (len(strip) + 1), len(strip), *strip))
+
+
 TETRA_POINTS = [(0.1, 0.0, 0.0), (1.0, 0.1, 0.0), (0.0, 1.0, 0.1), (0.0, 0.0, 1.0)]
 TETRA_FACETS = [(0, 2, 1), (0, 1, 3), (1, 2, 3), (2, 0, 3)]
 
@@ -104,4 +130,5 @@ if __name__ == "__main__":
     write_octahedra()
     write_cut_ply()
     write_quad_ply()
+    write_strips()
     write_stls()
