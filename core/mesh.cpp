@@ -27,7 +27,7 @@ TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> fa
     throw MeshError("EmptyMesh", "mesh has no faces (" + std::to_string(positions_.size()) +
                                      " vertices, 0 triangles)");
   }
-  if (faces_.size() > (std::size_t{1} << 30)) {
+  if (faces_.size() > kMaxFaces) {
     throw MeshError("TooLarge", "mesh has " + std::to_string(faces_.size()) +
                                     " faces; at most 2^30 are supported");
   }

@@ -39,8 +39,12 @@ inline constexpr std::int32_t kNoHalfedge = -1;
 
 class TriangleMesh {
  public:
-  /// Builds connectivity; throws MeshError (EmptyMesh, NonFiniteCoordinate, VertexOutOfRange,
-  /// DegenerateFaceIndices, NonManifoldEdge, InconsistentOrientation, NonManifoldVertex).
+  /// The most faces a mesh may have (its halfedge ids, 3 per face, then fit in 32 bits).
+  static constexpr std::size_t kMaxFaces = std::size_t{1} << 30;
+
+  /// Builds connectivity; throws MeshError (EmptyMesh, TooLarge, NonFiniteCoordinate,
+  /// VertexOutOfRange, DegenerateFaceIndices, NonManifoldEdge, InconsistentOrientation,
+  /// NonManifoldVertex).
   TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> faces);
 
   std::size_t num_vertices() const { return positions_.size(); }

@@ -750,9 +750,16 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
   const PlyElement* face_element = nullptr;
   const PlyElement* strip_element = nullptr;
   for (const PlyElement& element : elements) {
-    if (element.name == "vertex") vertex_element = &element;
-    if (element.name == "face") face_element = &element;
-    if (element.name == "tristrips") strip_element = &element;
+    const PlyElement** slot = element.name == "vertex"      ? &vertex_element
+                              : element.name == "face"      ? &face_element
+                              : element.name == "tristrips" ? &strip_element
+                                                            : nullptr;
+    if (!slot) continue;
+    if (*slot) {
+      throw_parse_error(path, element.line,
+                        "a second PLY element '" + element.name + "' (a file has one of each)");
+    }
+    *slot = &element;
   }
   if (!vertex_element) throw_parse_error(path, 0, "the PLY file has no vertex element");
   for (const char* axis : {"x", "y", "z"}) {
@@ -773,6 +780,19 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
                      is_face_index_list)) {
       throw_parse_error(path, 0,
                         "the PLY " + element->name + " element has no vertex_indices list");
+    }
+  }
+  if (strip_element) {
+    // OpenMesh skips an element it does not know by one value per property, not by whole
+    // lists: strips before the vertices would shift where it reads them.
+    if (strip_element < vertex_element) {
+      throw_parse_error(path, strip_element->line,
+                        "the tristrips element must come after the vertex element");
+    }
+    if (std::count_if(strip_element->properties.begin(), strip_element->properties.end(),
+                      is_face_index_list) > 1) {
+      throw_parse_error(path, strip_element->line,
+                        "the PLY tristrips element has more than one vertex index list");
     }
   }
 
@@ -845,11 +865,27 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
               length = 0;
               continue;
             }
-            const std::uint32_t v = checked_index(index, scan.faces.size(), path, values.line());
+            // Checked here, not only in the triangles kept: an index in a dropped triangle or
+            // a strip of fewer than three is as wrong.
+            if (index < 0 || index >= static_cast<long long>(vertex_element->count)) {
+              throw_mesh_error("VertexOutOfRange", path, values.line(),
+                               "tristrips " + std::to_string(i) + ": vertex index " +
+                                   std::to_string(index) + " is out of range (the file has " +
+                                   std::to_string(vertex_element->count) +
+                                   " vertices; only -1 ends a strip)");
+            }
+            const auto v = static_cast<std::uint32_t>(index);
             if (length >= 2) {
               Triangle t{last[0], last[1], v};
               if (length % 2 == 1) std::swap(t[0], t[1]);  // triangle `length - 2` is odd
               if (t[0] != t[1] && t[1] != t[2] && t[2] != t[0]) {
+                // One byte of index can add a triangle: stop at the mesh's limit before
+                // holding more than a mesh may have.
+                if (scan.faces.size() == TriangleMesh::kMaxFaces) {
+                  throw_mesh_error("TooLarge", path, values.line(),
+                                   "the triangle strips give more than 2^30 triangles, the "
+                                   "most a mesh may have");
+                }
                 scan.faces.push_back(t);
                 scan.face_lines.push_back(record_line);
               }

@@ -11,7 +11,8 @@
 //    s0 s1 s2 s3 ... gives (s0 s1 s2), (s2 s1 s3), (s2 s3 s4), ... (every other triangle
 //    turned round, to keep the strip's orientation); -1 ends a strip, every record starts one,
 //    and triangles that repeat a vertex (the joins of stitched strips) are dropped. Face ids
-//    are the kept triangles in that order. A file with both faces and strips is refused.
+//    are the kept triangles in that order. Every index is checked where it is read, kept or
+//    not. A file with both faces and strips, or with strips before the vertices, is refused.
 //  - Missing/unreadable/unparseable files throw FileError (FileNotFound, UnsupportedFormat,
 //    ParseError).
 #pragma once

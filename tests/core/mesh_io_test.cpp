@@ -189,10 +189,11 @@ TEST(MeshIo, AsciiAndBinaryPlyGiveIdenticalMeshes) {
 }
 
 TEST(MeshIo, PlyTriangleStripsUnrollInStripOrder) {
-  // tests/data/make_binary_files.py: a 3 x 3 grid as two strips, the first stitched with
-  // degenerate joins (0 3 1 4 4 1 1 4 2 5), the second split by -1 (3 6 4 7 -1 4 7 5 8). Every
-  // other triangle of a strip is turned round; those repeating a vertex are dropped.
-  const std::vector<Triangle> expected = {{0, 3, 1}, {1, 3, 4}, {1, 4, 2}, {2, 4, 5},
+  // tests/data/make_binary_files.py: a 3 x 3 grid as three records of strips, 0 3 1 4 4 4 2 5
+  // (three degenerate triangles in a row, dropped), 1 4 2, and 3 6 4 7 -1 4 7 5 8. The odd
+  // triangles of each strip (counted from the strip's start, dropped ones included) are turned
+  // round: (3 1 4) -> (1 3 4), (4 2 5) -> (2 4 5), (6 4 7) -> (4 6 7), (7 5 8) -> (5 7 8).
+  const std::vector<Triangle> expected = {{0, 3, 1}, {1, 3, 4}, {2, 4, 5}, {1, 4, 2},
                                           {3, 6, 4}, {4, 6, 7}, {4, 7, 5}, {5, 7, 8}};
   for (const char* name : {"strips.ply", "strips_binary.ply"}) {
     SCOPED_TRACE(name);
@@ -222,17 +223,38 @@ TEST(MeshIoRefusal, BadPlyTriangleStrips) {
            header + "element face 1\nproperty list uchar int vertex_indices\n" + strips +
                "end_header\n" + vertices + "3 0 1 2\n4 0 2 1 3\n"),
       "UnsupportedFormat", {"faces-and-strips.ply", "both faces and triangle strips"});
-  // Only -1 separates strips; other negative indices are errors naming the triangle.
-  expect_refusal<MeshError>(file("strip-negative", header + strips + "end_header\n" + vertices +
-                                                       "5 0 1 2 -2 3\n"),
-                            "VertexOutOfRange", {"face 1 refers to vertex -2"});
-  expect_refusal<MeshError>(
-      file("strip-out-of-range", header + strips + "end_header\n" + vertices + "4 0 2 1 9\n"),
-      "VertexOutOfRange", {"face 1 (vertices 1 2 9) refers to vertex 9", "4 vertices"});
+  // Only -1 separates strips; any other index outside the vertices is refused where it is
+  // read, even in a strip too short for a triangle or in a triangle that would be dropped.
+  for (const auto& [name, record] :
+       std::vector<std::pair<std::string, std::string>>{{"strip-negative", "5 0 1 2 -2 3"},
+                                                        {"strip-short", "2 0 9"},
+                                                        {"strip-dropped", "4 0 1 1 9"}}) {
+    SCOPED_TRACE(name);
+    const std::string index = name == "strip-negative" ? "-2" : "9";
+    expect_refusal<MeshError>(
+        file(name, header + strips + "end_header\n" + vertices + record + "\n"),
+        "VertexOutOfRange",
+        {name + ".ply:", "tristrips 0: vertex index " + index + " is out of range",
+         "4 vertices; only -1 ends a strip"});
+  }
   expect_refusal<FileError>(
       file("strip-no-indices", header + "element tristrips 1\nproperty list int int corners\n" +
                                    "end_header\n" + vertices + "3 0 1 2\n"),
       "ParseError", {"tristrips element has no vertex_indices list"});
+  expect_refusal<FileError>(
+      file("strip-two-lists", header + strips + "property list int int vertex_index\n" +
+                                  "end_header\n" + vertices + "3 0 1 2 3 0 1 2\n"),
+      "ParseError", {"more than one vertex index list"});
+  expect_refusal<FileError>(
+      file("strip-twice", header + strips + strips + "end_header\n" + vertices +
+                              "3 0 1 2\n3 1 3 2\n"),
+      "ParseError", {"a second PLY element 'tristrips'"});
+  // OpenMesh would read the vertices at the wrong place behind strips it skips.
+  expect_refusal<FileError>(
+      file("strip-first", "ply\nformat ascii 1.0\n" + strips +
+                              "element vertex 4\nproperty float x\nproperty float y\n"
+                              "property float z\nend_header\n3 0 1 2\n" + vertices),
+      "ParseError", {"strip-first.ply:", "must come after the vertex element"});
 }
 
 TEST(MeshIo, StlCornersWeldInOrderOfFirstUse) {

@@ -12,9 +12,11 @@ cut_binary.ply: octahedron_binary.ply cut 26 bytes short, inside its face lists:
 the smallest records its header allows.
 comment_before_end_header.ply: octahedron_binary.ply with its comment moved to the line before
 end_header, which makes OpenMesh 9's reader read the data one byte off.
-strips.ply / strips_binary.ply: a 3 x 3 grid of vertices as two triangle strips (element
-tristrips, as Stanford's scans store them): the first row stitched with degenerate joins, the
-second split by -1. Both unroll to the same 8 triangles.
+strips.ply / strips_binary.ply: a 3 x 3 grid of vertices as triangle strips (element tristrips,
+as Stanford's scans store them), three records: a strip with three degenerate triangles in a row
+(an odd number, so that numbering the triangles kept instead of the strip's would turn the next
+one round), a one-triangle record (so that not restarting the count at each record would turn
+the third record round), and two strips split by -1. Both unroll to the same 8 triangles.
 """
 import struct
 
@@ -68,7 +70,7 @@ def write_quad_ply():
 
 
 GRID_VERTICES = [(x, y, 0) for y in range(3) for x in range(3)]
-GRID_STRIPS = [[0, 3, 1, 4, 4, 1, 1, 4, 2, 5], [3, 6, 4, 7, -1, 4, 7, 5, 8]]
+GRID_STRIPS = [[0, 3, 1, 4, 4, 4, 2, 5], [1, 4, 2], [3, 6, 4, 7, -1, 4, 7, 5, 8]]
 
 
 def write_strips():
