@@ -555,6 +555,30 @@ bool is_face_index_list(const PlyProperty& property) {
   return property.is_list && (property.name == "vertex_indices" || property.name == "vertex_index");
 }
 
+/// PLY triangle strips unrolled one vertex at a time, by the rule of core/mesh_io.h.
+class TriangleStrip {
+ public:
+  /// Starts a new strip (-1, or a new record).
+  void restart() { length_ = 0; }
+  /// Appends v; returns the triangle it completes unless there is none or it repeats a vertex.
+  std::optional<Triangle> append(std::uint32_t v) {
+    std::optional<Triangle> kept;
+    if (length_ >= 2) {
+      Triangle t{last_[0], last_[1], v};
+      if (length_ % 2 == 1) std::swap(t[0], t[1]);  // the strip's triangle length_ - 2 is odd
+      if (t[0] != t[1] && t[1] != t[2] && t[2] != t[0]) kept = t;
+    }
+    last_[0] = last_[1];
+    last_[1] = v;
+    ++length_;
+    return kept;
+  }
+
+ private:
+  std::size_t length_ = 0;
+  std::uint32_t last_[2] = {0, 0};
+};
+
 /// The values of a PLY body, one at a time: tokens of an ascii body, or numbers decoded from a
 /// binary one.
 class PlyValueReader {
@@ -856,13 +880,11 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
                                 PlyValueReader::text_of(value, value_text));
         }
         if (is_strip && is_face_index_list(property)) {
-          // Unrolled by the rule of core/mesh_io.h.
-          std::size_t length = 0;  // of the current strip
-          std::uint32_t last[2] = {0, 0};
+          TriangleStrip strip;
           for (long long k = 0; k < count; ++k) {
             const long long index = next_integer(property.type, element, i, "a vertex index");
             if (index == -1) {
-              length = 0;
+              strip.restart();
               continue;
             }
             // Checked here, not only in the triangles kept: an index in a dropped triangle or
@@ -874,25 +896,17 @@ FileScan scan_ply(std::string_view text, const std::string& path) {
                                    std::to_string(vertex_element->count) +
                                    " vertices; only -1 ends a strip)");
             }
-            const auto v = static_cast<std::uint32_t>(index);
-            if (length >= 2) {
-              Triangle t{last[0], last[1], v};
-              if (length % 2 == 1) std::swap(t[0], t[1]);  // triangle `length - 2` is odd
-              if (t[0] != t[1] && t[1] != t[2] && t[2] != t[0]) {
-                // One byte of index can add a triangle: stop at the mesh's limit before
-                // holding more than a mesh may have.
-                if (scan.faces.size() == TriangleMesh::kMaxFaces) {
-                  throw_mesh_error("TooLarge", path, values.line(),
-                                   "the triangle strips give more than 2^30 triangles, the "
-                                   "most a mesh may have");
-                }
-                scan.faces.push_back(t);
-                scan.face_lines.push_back(record_line);
-              }
+            const std::optional<Triangle> t = strip.append(static_cast<std::uint32_t>(index));
+            if (!t) continue;
+            // One byte of index can add a triangle: stop at the mesh's limit before holding
+            // more than a mesh may have.
+            if (scan.faces.size() == TriangleMesh::kMaxFaces) {
+              throw_mesh_error("TooLarge", path, values.line(),
+                               "the triangle strips give more than 2^30 triangles, the most a "
+                               "mesh may have");
             }
-            last[0] = last[1];
-            last[1] = v;
-            ++length;
+            scan.faces.push_back(*t);
+            scan.face_lines.push_back(record_line);
           }
           continue;
         }

@@ -1473,9 +1473,10 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
     // Radii halfway between two consecutive vertex distances (no vertex sits on the bound):
     // about 20 vertices, 1% of them, and 30%.
     // Each radius with one queue entry per window, then with halfedges queued.
+    const std::array<std::size_t, 3> ranks{20, sorted.size() / 100, sorted.size() * 3 / 10};
     std::size_t per_window_pops = 0;
-    for (std::size_t run = 0; run < 6; ++run) {
-      std::size_t rank = std::array<std::size_t, 3>{20, sorted.size() / 100, sorted.size() * 3 / 10}[run / 2];
+    for (std::size_t run = 0; run < 2 * ranks.size(); ++run) {
+      std::size_t rank = ranks[run / 2];
       rank = std::clamp<std::size_t>(rank, 1, sorted.size() - 1);
       const double r = 0.5 * (sorted[rank - 1] + sorted[rank]);
       ExactGeodesicSolver::Options opt;
@@ -1487,7 +1488,8 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
                               (opt.queue_halfedges ? ", halfedges queued" : "");
       if (!opt.queue_halfedges) {
         per_window_pops = bounded.stats().queue_pops;
-      } else if (run == 5 && !(bounded.stats().queue_pops < per_window_pops)) {
+      } else if (run + 1 == 2 * ranks.size() &&
+                 !(bounded.stats().queue_pops < per_window_pops)) {
         // The widest disk: a halfedge's waiting windows go together, in fewer pops.
         tally.fail(ctx + ": " + std::to_string(bounded.stats().queue_pops) + " pops, against " +
                    std::to_string(per_window_pops) + " with one entry per window");
@@ -1633,9 +1635,10 @@ TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
     std::vector<std::pair<double, std::uint32_t>> truth;
     for (std::uint32_t i = 0; i < targets.size(); ++i) truth.push_back({full.distance(targets[i]), i});
     std::sort(truth.begin(), truth.end());
-    for (std::size_t run = 0; run < 8; ++run) {
+    const std::array<std::size_t, 4> ks{1, 36, 100, targets.size()};
+    for (std::size_t run = 0; run < 2 * ks.size(); ++run) {
       // Each K with one queue entry per window, then with halfedges queued.
-      const std::size_t k = std::array<std::size_t, 4>{1, 36, 100, targets.size()}[run / 2];
+      const std::size_t k = ks[run / 2];
       ExactGeodesicSolver::Options opt;
       opt.stop_after_targets = k;
       opt.queue_halfedges = run % 2 == 1;

@@ -25,11 +25,12 @@ OCTAHEDRON_FACES = [(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4),
                     (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]
 
 
-def ply_header(fmt, vertices, faces, vertex_type="float"):
+def ply_header(fmt, vertices, faces, vertex_type="float", face_element="face",
+               length_type="uchar"):
     return (f"ply\nformat {fmt} 1.0\ncomment geoprox test data\n"
             f"element vertex {vertices}\nproperty {vertex_type} x\nproperty {vertex_type} y\n"
-            f"property {vertex_type} z\nelement face {faces}\n"
-            "property list uchar int vertex_indices\nend_header\n")
+            f"property {vertex_type} z\nelement {face_element} {faces}\n"
+            f"property list {length_type} int vertex_indices\nend_header\n")
 
 
 def write_octahedra():
@@ -73,19 +74,20 @@ GRID_VERTICES = [(x, y, 0) for y in range(3) for x in range(3)]
 GRID_STRIPS = [[0, 3, 1, 4, 4, 4, 2, 5], [1, 4, 2], [3, 6, 4, 7, -1, 4, 7, 5, 8]]
 
 
+def strips_header(fmt):
+    return ply_header(fmt, len(GRID_VERTICES), len(GRID_STRIPS), face_element="tristrips",
+                      length_type="int")
+
+
 def write_strips():
-    header = ("ply\nformat {} 1.0\ncomment geoprox test data\nelement vertex {}\n"
-              "property float x\nproperty float y\nproperty float z\nelement tristrips {}\n"
-              "property list int int vertex_indices\nend_header\n")
     with open("strips.ply", "w") as out:
-        out.write(header.format("ascii", len(GRID_VERTICES), len(GRID_STRIPS)))
+        out.write(strips_header("ascii"))
         for v in GRID_VERTICES:
             out.write("%g %g %g\n" % v)
         for strip in GRID_STRIPS:
             out.write(" ".join(str(i) for i in [len(strip)] + strip) + "\n")
     with open("strips_binary.ply", "wb") as out:
-        out.write(header.format("binary_little_endian", len(GRID_VERTICES),
-                                len(GRID_STRIPS)).encode())
+        out.write(strips_header("binary_little_endian").encode())
         for v in GRID_VERTICES:
             out.write(struct.pack("<3f", *v))
         for strip in GRID_STRIPS:
