@@ -1,7 +1,7 @@
 // Benchmark of the exact geodesic solver (issue 2, section 6). Not a test: it only measures.
 //
 //   exact_geodesic_bench MESH... [--runs N] [--sources K] [--samples S] [--nearest K]
-//                                [--local-solves M] [--seed X]
+//                                [--local-solves M] [--seed X] [--disks-out DIR]
 //
 // For each mesh:
 //  - full: a single-source solve over the whole surface from K deterministic random vertices,
@@ -16,7 +16,11 @@
 //    a GeodesicTargets, halfedges queued (ExactGeodesicOptions::queue_halfedges); the median
 //    time (two rounds of M solves) and the median radius reached are reported, and on the
 //    details line the median of the same solves with one queue entry per window (two rounds,
-//    alternated with the others);
+//    alternated with the others), and of radius solves over the same disks (from each source
+//    out to the radius its bounded solve reached: what the reference solvers time, below);
+//  - with --disks-out DIR: DIR/MESH.disks lists those disks, one `source_vertex radius` line per
+//    bounded solve, for the reference solvers' drivers (bench/reference/README.md) to solve the
+//    same disks;
 //  - peak RSS: VmHWM of /proc/self/status, reset per mesh through /proc/self/clear_refs.
 // Otherwise one solver object per mesh is reused for every solve, as the daemon does. Single
 // thread.
@@ -49,13 +53,15 @@ struct Settings {
   std::size_t nearest = 36;
   int local_solves = 200;
   std::uint64_t seed = 2024;
+  std::string disks_out;  ///< directory for MESH.disks; empty: none written
 };
 
 [[noreturn]] void usage(const char* why) {
   std::fprintf(stderr,
                "exact_geodesic_bench: %s\n"
                "usage: exact_geodesic_bench MESH... [--runs N] [--sources K] [--samples S]\n"
-               "                            [--nearest K] [--local-solves M] [--seed X]\n",
+               "                            [--nearest K] [--local-solves M] [--seed X]\n"
+               "                            [--disks-out DIR]\n",
                why);
   std::exit(2);
 }
@@ -129,12 +135,17 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
   ExactGeodesicSolver::Options per_window = opt;
   per_window.queue_halfedges = false;
   std::vector<double> local_ms, per_window_ms, radius, local_windows;
+  // The k-th bounded solve starts from the k-th sample.
+  auto source_vertex = [&](int k) { return order[static_cast<std::size_t>(k) % order.size()]; };
+  auto source_of = [&](int k) {
+    return std::vector<GeodesicSource>{{SurfacePoint::vertex(source_vertex(k)), 0.0}};
+  };
   // Two rounds of each kind, alternated; a round solves from every one of the M samples (a
   // solve repeated at once from the same source would find its disk in cache).
   for (int round = 0; round < 4; ++round) {
     const bool queued = round % 2 == 0;
     for (int k = 0; k < s.local_solves; ++k) {
-      const std::vector<GeodesicSource> source{{targets[static_cast<std::size_t>(k) % targets.size()], 0.0}};
+      const std::vector<GeodesicSource> source = source_of(k);
       const auto start = Clock::now();
       solver.solve(source, prepared, queued ? opt : per_window);
       (queued ? local_ms : per_window_ms).push_back(ms_since(start));
@@ -143,6 +154,30 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
         local_windows.push_back(static_cast<double>(solver.stats().windows_created));
       }
     }
+  }
+  // The same disks by radius: the stop the reference solvers offer.
+  std::vector<double> radius_ms;
+  for (int round = 0; round < 2; ++round) {
+    for (int k = 0; k < s.local_solves; ++k) {
+      const std::vector<GeodesicSource> source = source_of(k);
+      ExactGeodesicSolver::Options by_radius;
+      by_radius.max_distance = radius[static_cast<std::size_t>(k)];
+      by_radius.queue_halfedges = true;
+      const auto start = Clock::now();
+      solver.solve(source, {}, by_radius);
+      radius_ms.push_back(ms_since(start));
+    }
+  }
+  if (!s.disks_out.empty()) {
+    const std::string disks_path = s.disks_out + "/" + base_name(path) + ".disks";
+    std::string text;
+    char line[64];
+    for (int k = 0; k < s.local_solves; ++k) {
+      std::snprintf(line, sizeof line, "%u %.17g\n", source_vertex(k),
+                    radius[static_cast<std::size_t>(k)]);
+      text += line;
+    }
+    write_atomically(disks_path, text);
   }
 
   std::printf("| %s | %zu | %.1f | %.1f | %.0f | %.3f | %.4g (%.2f edges) | %.0f | %.0f |\n",
@@ -155,11 +190,13 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
   std::snprintf(details, sizeof details,
                "- %s: load+geometry %.0f ms; full solve min %.1f / max %.1f ms over %zu runs, %zu of %u "
                "vertices reached; local solves: %zu targets, stop after %zu, min %.3f / max %.3f ms; "
-               "with one queue entry per window: median %.3f ms",
+               "with one queue entry per window: median %.3f ms; radius solves over the same disks: "
+               "median %.3f ms",
                base_name(path).c_str(), load_ms, *std::min_element(full_ms.begin(), full_ms.end()),
                *std::max_element(full_ms.begin(), full_ms.end()), full_ms.size(), reached, nv, targets.size(),
                opt.stop_after_targets, *std::min_element(local_ms.begin(), local_ms.end()),
-               *std::max_element(local_ms.begin(), local_ms.end()), median(per_window_ms));
+               *std::max_element(local_ms.begin(), local_ms.end()), median(per_window_ms),
+               median(radius_ms));
   return details;
 }
 
@@ -184,6 +221,8 @@ int main(int argc, char** argv) {
       s.nearest = static_cast<std::size_t>(parse_count("--nearest", value()));
     } else if (a == "--local-solves") {
       s.local_solves = static_cast<int>(parse_count("--local-solves", value()));
+    } else if (a == "--disks-out") {
+      s.disks_out = value();
     } else if (a == "--seed") {
       s.seed = static_cast<std::uint64_t>(parse_count("--seed", value()));
     } else if (a == "-h" || a == "--help") {

@@ -86,6 +86,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "bench/bench_support.h"
 #include "core/geodesic_query.h"
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
@@ -98,6 +99,7 @@ namespace asio = boost::asio;
 using asio::ip::tcp;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
+using geoprox::bench::write_atomically;
 
 struct Options {
   std::string host = "127.0.0.1";
@@ -849,18 +851,6 @@ MeshShape query_shape(const Options& o) {
     usage("mesh " + o.mesh + " is not ready: " + line);
   }
   return {reply["result"]["vertices"].get<std::uint64_t>(), reply["result"]["faces"].get<std::uint64_t>()};
-}
-
-/// Writes `text` to a temporary name beside `path`, then renames it over `path`.
-void write_atomically(const std::string& path, const std::string& text) {
-  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write " + temporary);
-  }
-  std::filesystem::rename(temporary, path);
 }
 
 int run_network(const Options& o) {

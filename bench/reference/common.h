@@ -38,26 +38,67 @@ inline bool read_obj(const char* path, std::vector<double>& points, std::vector<
   return true;
 }
 
-/// The drivers' command line, `MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]`, and the mesh.
+/// One bounded solve: from a vertex out to a radius. `exact_geodesic_bench --disks-out DIR`
+/// writes the disks of its bounded solves as `source_vertex radius` lines (DIR/MESH.disks).
+struct Disk {
+  unsigned source = 0;
+  double radius = 0;
+};
+
+/// The drivers' command line and the mesh: `MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]` (full
+/// solves) or `MESH.obj --disks FILE` (one bounded solve per disk of FILE).
 struct Run {
   std::vector<double> points;  ///< x y z per vertex
   std::vector<unsigned> faces;  ///< three 0-based vertex ids per triangle
   unsigned source = 0;
   int runs = 0;
   const char* distances_out = nullptr;
+  std::vector<Disk> disks;  ///< not empty: bounded solves instead of full ones
   std::size_t num_vertices() const { return points.size() / 3; }
 };
+
+/// The disks of a FILE; false (and why, on stderr) when it cannot be read, a line is not
+/// `source_vertex radius` with a vertex of the mesh and a finite radius >= 0, or it is empty.
+inline bool read_disks(const char* path, std::size_t num_vertices, std::vector<Disk>& disks) {
+  std::ifstream in(path);
+  if (!in) {
+    std::fprintf(stderr, "cannot read %s\n", path);
+    return false;
+  }
+  std::string line;
+  for (std::size_t number = 1; std::getline(in, line); ++number) {
+    std::istringstream fields(line);
+    long source = -1;
+    double radius = -1;
+    std::string rest;
+    if (!(fields >> source >> radius) || (fields >> rest) || source < 0 ||
+        static_cast<std::size_t>(source) >= num_vertices || !std::isfinite(radius) || radius < 0) {
+      std::fprintf(stderr, "%s:%zu: expected `source_vertex radius` (a vertex of the mesh, a "
+                   "finite radius >= 0), got '%s'\n", path, number, line.c_str());
+      return false;
+    }
+    disks.push_back({static_cast<unsigned>(source), radius});
+  }
+  if (disks.empty()) std::fprintf(stderr, "%s lists no disks\n", path);
+  return !disks.empty();
+}
 
 /// Reads the command line and the mesh; on failure says why and returns the exit code (1 usage,
 /// 2 unreadable mesh, 3 bad source or run count), else 0.
 inline int start(int argc, char** argv, Run& run) {
   if (argc < 4) {
-    std::fprintf(stderr, "usage: %s MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]\n", argv[0]);
+    std::fprintf(stderr,
+                 "usage: %s MESH.obj SOURCE_VERTEX RUNS [DISTANCES_OUT]\n"
+                 "       %s MESH.obj --disks FILE\n",
+                 argv[0], argv[0]);
     return 1;
   }
   if (!read_obj(argv[1], run.points, run.faces)) {
     std::fprintf(stderr, "cannot read %s (triangles only)\n", argv[1]);
     return 2;
+  }
+  if (std::string(argv[2]) == "--disks") {
+    return read_disks(argv[3], run.num_vertices(), run.disks) ? 0 : 3;
   }
   run.source = static_cast<unsigned>(std::atol(argv[2]));
   run.runs = std::atoi(argv[3]);
@@ -89,14 +130,16 @@ class StdoutToStderr {
   int saved_;
 };
 
+inline double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
 /// Prints the median and minimum time, the check distances and every run's time.
 inline void report(const std::vector<double>& times_ms, const std::vector<double>& distance,
                    double unreachable_above) {
-  std::vector<double> sorted = times_ms;
-  std::sort(sorted.begin(), sorted.end());
-  const std::size_t n = sorted.size();
-  const double median = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
-  std::printf("%.3f %.3f\n", median, sorted.front());
+  std::printf("%.3f %.3f\n", median(times_ms), *std::min_element(times_ms.begin(), times_ms.end()));
   double farthest = 0;
   std::size_t farthest_vertex = 0, unreached = 0;
   for (std::size_t v = 0; v < distance.size(); ++v) {
@@ -110,6 +153,18 @@ inline void report(const std::vector<double>& times_ms, const std::vector<double
   auto at = [&](std::size_t v) { return v < distance.size() ? distance[v] : NAN; };
   std::printf("d[1] %.17g d[100] %.17g d[5000] %.17g farthest %.17g (vertex %zu) unreached %zu\n",
               at(1), at(100), at(5000), farthest, farthest_vertex, unreached);
+  std::printf("runs_ms");
+  for (double t : times_ms) std::printf(" %.3f", t);
+  std::printf("\n");
+}
+
+/// Bounded solves: the median time, and the median count of vertices each found within its
+/// radius (to compare with the bench's disks), then every solve's time.
+inline void report_disks(const std::vector<double>& times_ms, const std::vector<double>& within) {
+  std::printf("%.3f %.3f bounded solves: median, minimum ms; %zu disks, median %.0f vertices "
+              "within the radius\n",
+              median(times_ms), *std::min_element(times_ms.begin(), times_ms.end()),
+              times_ms.size(), median(within));
   std::printf("runs_ms");
   for (double t : times_ms) std::printf(" %.3f", t);
   std::printf("\n");
