@@ -136,6 +136,13 @@ inline double median(std::vector<double> values) {
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+/// Every run's time, on one line.
+inline void print_runs(const std::vector<double>& times_ms) {
+  std::printf("runs_ms");
+  for (double t : times_ms) std::printf(" %.3f", t);
+  std::printf("\n");
+}
+
 /// Prints the median and minimum time, the check distances and every run's time.
 inline void report(const std::vector<double>& times_ms, const std::vector<double>& distance,
                    double unreachable_above) {
@@ -153,9 +160,7 @@ inline void report(const std::vector<double>& times_ms, const std::vector<double
   auto at = [&](std::size_t v) { return v < distance.size() ? distance[v] : NAN; };
   std::printf("d[1] %.17g d[100] %.17g d[5000] %.17g farthest %.17g (vertex %zu) unreached %zu\n",
               at(1), at(100), at(5000), farthest, farthest_vertex, unreached);
-  std::printf("runs_ms");
-  for (double t : times_ms) std::printf(" %.3f", t);
-  std::printf("\n");
+  print_runs(times_ms);
 }
 
 /// Bounded solves: the median time, and the median count of vertices each found within its
@@ -165,9 +170,7 @@ inline void report_disks(const std::vector<double>& times_ms, const std::vector<
               "within the radius\n",
               median(times_ms), *std::min_element(times_ms.begin(), times_ms.end()),
               times_ms.size(), median(within));
-  std::printf("runs_ms");
-  for (double t : times_ms) std::printf(" %.3f", t);
-  std::printf("\n");
+  print_runs(times_ms);
 }
 
 inline void write_distances(const char* path, const std::vector<double>& distance) {
