@@ -31,7 +31,7 @@
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
 #include "core/radix_heap.h"
-#include "core/segmented_array.h"
+#include "core/mapped_array.h"
 #include "core/surface_point.h"
 
 namespace geoprox {
@@ -393,8 +393,8 @@ class ExactGeodesicSolver {
   std::vector<std::uint32_t> face_stamp_;
   std::vector<std::int32_t> face_first_seed_;     ///< head of the face's source-seed list
 
-  SegmentedArray<Window> windows_;
-  SegmentedArray<SpanChunk> chunks_;
+  MappedArray<Window> windows_;
+  MappedArray<SpanChunk> chunks_;
   /// Keeps halfedge_queued_'s positions current as the queue moves halfedge entries.
   struct HalfedgeEntryPlacement {
     QueuedHalfedge* queued = nullptr;  ///< halfedge_queued_.data(), set by every full solve
