@@ -195,6 +195,10 @@ void ExactGeodesicSolver::relax_vertex(std::uint32_t v, double distance, std::in
   if (!vertex_emitted_[v] &&
       (geometry_->is_pseudo_source(v) || via_vertex == kViaSourceVertex)) {
     push(distance, kVertexItem | v);
+    // Emitting reads v's fan from the mesh, which no window brought into cache: start now,
+    // long before the vertex is popped (the list itself is requested when it is next; see run).
+    mesh_->prefetch_outgoing_index(v);
+    geometry_->prefetch_vertex(v);
   }
   if (targets_) update_targets_at_vertex(v);
 }
@@ -299,7 +303,12 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
     // The next window was stored long ago: start loading it, and its halfedge's crossing
     // record (the queue entry names the halfedge, so this does not wait for the window),
     // while this entry is processed. About 5% of a solve on lucy and horse.
-    if (!queue_.empty() && !(queue_.top().item & kVertexItem)) {
+    if (!queue_.empty() && (queue_.top().item & kVertexItem)) {
+      // A pseudo-source is next: its list of outgoing halfedges (the index was requested
+      // when the vertex was queued). With the hints in relax_vertex and emit_pseudo_source,
+      // solves to the 36 nearest of 5000 samples on lucy.obj are 4% faster.
+      mesh_->prefetch_outgoing_halfedges(queue_.top().item & ~kVertexItem);
+    } else if (!queue_.empty()) {
       const QueueEntry& next = queue_.top();
       __builtin_prefetch(&windows_[next.item & ~kHalfedgeItem]);
       __builtin_prefetch(&geometry_->crossing(next.halfedge));
@@ -439,6 +448,7 @@ void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
   const IntrinsicGeometry& g = *geometry_;
   for (std::uint32_t h : mesh_->outgoing_halfedges(v)) {
     // h = v -> a in face (v, a, b): the neighbours a and b.
+    g.prefetch_corner_angle(h);  // read when the shadow is walked, below
     const HalfedgeCrossing& crossing = g.crossing(h);
     const auto via = static_cast<std::int32_t>(v);
     relax_vertex(crossing.target, d + crossing.layout.length, -1, via, source_index);

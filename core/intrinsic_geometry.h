@@ -79,6 +79,13 @@ class IntrinsicGeometry {
   /// A corner of some degenerate face: angles there are unreliable, so solvers treat it as a
   /// pseudo-source emitting in every direction.
   bool is_degenerate_vertex(std::uint32_t v) const { return degenerate_vertex_[v] != 0; }
+  /// Cache hints: what a solver reads about vertex v (angle sum, degenerate flag) or about the
+  /// corner at h's origin when v emits windows as a pseudo-source.
+  void prefetch_vertex(std::uint32_t v) const {
+    __builtin_prefetch(&angle_sum_[v]);
+    __builtin_prefetch(&degenerate_vertex_[v]);
+  }
+  void prefetch_corner_angle(std::uint32_t h) const { __builtin_prefetch(&corner_angle_[h]); }
 
   /// Corner `corner` (0..2) of face f in the face's frame.
   Vec2 face_corner(std::uint32_t f, int corner) const;
