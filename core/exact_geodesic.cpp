@@ -450,6 +450,14 @@ void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
     // h = v -> a in face (v, a, b): the neighbours a and b.
     g.prefetch_corner_angle(h);  // read when the shadow is walked, below
     const HalfedgeCrossing& crossing = g.crossing(h);
+    // The windows go beyond the far edge a -> b, on halfedges that rarely hold any yet: what
+    // creating them reads there starts loading now.
+    if (const std::int32_t t = crossing.twin_next; t >= 0) {
+      const auto beyond = static_cast<std::uint32_t>(t);
+      __builtin_prefetch(&g.crossing(beyond));
+      __builtin_prefetch(&halfedge_state_[beyond]);
+      if (batch_halfedges_) __builtin_prefetch(&halfedge_queued_[beyond]);
+    }
     const auto via = static_cast<std::int32_t>(v);
     relax_vertex(crossing.target, d + crossing.layout.length, -1, via, source_index);
     relax_vertex(crossing.opposite, d + g.layout(TriangleMesh::prev(h)).length, -1, via,
