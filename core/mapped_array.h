@@ -15,17 +15,30 @@
 //
 // Growth moves the elements' addresses, as a std::vector's does: hold indices, not references,
 // across push_back. Elements must be trivially copyable. Elsewhere than Linux the mapping is a
-// malloc'd block grown by realloc.
+// malloc'd block grown by realloc. Under ThreadSanitizer, growth maps a new block, copies and
+// unmaps the old one: TSan does not intercept mremap, so the moved pages would keep whatever
+// access history its shadow held for their new addresses (google/sanitizers#1099), and a
+// solver on one thread could be reported as racing with a thread that used those addresses
+// before.
 #pragma once
 
 #include <cstddef>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <type_traits>
 #include <utility>
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#endif
+
+#if defined(__SANITIZE_THREAD__)
+#define GEOPROX_MAPPED_ARRAY_COPIES 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define GEOPROX_MAPPED_ARRAY_COPIES 1
+#endif
 #endif
 
 namespace geoprox {
@@ -77,11 +90,20 @@ class MappedArray {
     if (new_bytes / 2 < old_bytes) throw std::bad_alloc();  // overflow
     void* grown;
 #if defined(__linux__)
+#if defined(GEOPROX_MAPPED_ARRAY_COPIES)
+    grown = mmap(nullptr, new_bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (grown == MAP_FAILED) throw std::bad_alloc();
+    if (data_ != nullptr) {
+      std::memcpy(grown, data_, old_bytes);
+      munmap(data_, old_bytes);
+    }
+#else
     grown = data_ == nullptr
                 ? mmap(nullptr, new_bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
                        -1, 0)
                 : mremap(data_, old_bytes, new_bytes, MREMAP_MAYMOVE);
     if (grown == MAP_FAILED) throw std::bad_alloc();  // the old mapping is left as it was
+#endif
 #if defined(MADV_HUGEPAGE)
     if (new_bytes > kInitialBytes) madvise(grown, new_bytes, MADV_HUGEPAGE);  // a hint only
 #endif
