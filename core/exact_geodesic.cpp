@@ -300,15 +300,16 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
     }
     pop();
     if (options.interrupt && (stats_.queue_pops & 1023) == 0) options.interrupt->check();
-    // The next window was stored long ago: start loading it, and its halfedge's crossing
-    // record (the queue entry names the halfedge, so this does not wait for the window),
-    // while this entry is processed. About 5% of a solve on lucy and horse.
+    // Start loading what the next entry reads while this one is processed.
     if (!queue_.empty() && (queue_.top().item & kVertexItem)) {
       // A pseudo-source is next: its list of outgoing halfedges (the index was requested
       // when the vertex was queued). With the hints in relax_vertex and emit_pseudo_source,
       // solves to the 36 nearest of 5000 samples on lucy.obj are 4% faster.
       mesh_->prefetch_outgoing_halfedges(queue_.top().item & ~kVertexItem);
     } else if (!queue_.empty()) {
+      // The next window was stored long ago: start loading it, and its halfedge's crossing
+      // record (the queue entry names the halfedge, so this does not wait for the window).
+      // About 5% of a solve on lucy and horse.
       const QueueEntry& next = queue_.top();
       __builtin_prefetch(&windows_[next.item & ~kHalfedgeItem]);
       __builtin_prefetch(&geometry_->crossing(next.halfedge));
