@@ -453,11 +453,8 @@ void ExactGeodesicSolver::emit_pseudo_source(std::uint32_t v) {
     const HalfedgeCrossing& crossing = g.crossing(h);
     // The windows go beyond the far edge a -> b, on halfedges that rarely hold any yet: what
     // creating them reads there starts loading now.
-    if (const std::int32_t t = crossing.twin_next; t >= 0) {
-      const auto beyond = static_cast<std::uint32_t>(t);
-      __builtin_prefetch(&g.crossing(beyond));
-      __builtin_prefetch(&halfedge_state_[beyond]);
-      if (batch_halfedges_) __builtin_prefetch(&halfedge_queued_[beyond]);
+    if (crossing.twin_next >= 0) {
+      prefetch_window_creation(static_cast<std::uint32_t>(crossing.twin_next));
     }
     const auto via = static_cast<std::int32_t>(v);
     relax_vertex(crossing.target, d + crossing.layout.length, -1, via, source_index);
@@ -908,11 +905,7 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   // The children land in the neighbouring faces, rarely near this one in memory: start
   // loading what creating them reads while this face's vertices are relaxed.
   for (const std::int32_t t : {crossing.twin_prev, crossing.twin_next}) {
-    if (t >= 0) {
-      __builtin_prefetch(&geometry_->crossing(static_cast<std::uint32_t>(t)));
-      __builtin_prefetch(&halfedge_state_[static_cast<std::uint32_t>(t)]);
-      if (batch_halfedges_) __builtin_prefetch(&halfedge_queued_[static_cast<std::uint32_t>(t)]);
-    }
+    if (t >= 0) prefetch_window_creation(static_cast<std::uint32_t>(t));
   }
   const HalfedgeLayout& lay = crossing.layout;
   const double L = lay.length, cx = lay.cx, cy = lay.cy;

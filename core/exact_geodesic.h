@@ -356,6 +356,13 @@ class ExactGeodesicSolver {
       }
     }
   }
+  /// Cache hints for what creating a window on halfedge h reads: its crossing record, its
+  /// window list's head and (batched solves) its queue entry.
+  void prefetch_window_creation(std::uint32_t h) const {
+    __builtin_prefetch(&geometry_->crossing(h));
+    __builtin_prefetch(&halfedge_state_[h]);
+    if (batch_halfedges_) __builtin_prefetch(&halfedge_queued_[h]);
+  }
   double vertex_estimate(std::uint32_t v) const {
     return vertex_distance_[v];
   }

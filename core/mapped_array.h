@@ -33,11 +33,12 @@
 #include <sys/mman.h>
 #endif
 
+// Set when built with ThreadSanitizer (GCC's and Clang's ways of saying so).
 #if defined(__SANITIZE_THREAD__)
-#define GEOPROX_MAPPED_ARRAY_COPIES 1
+#define GEOPROX_MAPPED_ARRAY_UNDER_TSAN 1
 #elif defined(__has_feature)
 #if __has_feature(thread_sanitizer)
-#define GEOPROX_MAPPED_ARRAY_COPIES 1
+#define GEOPROX_MAPPED_ARRAY_UNDER_TSAN 1
 #endif
 #endif
 
@@ -88,27 +89,23 @@ class MappedArray {
     const std::size_t old_bytes = capacity_ * sizeof(T);
     const std::size_t new_bytes = old_bytes == 0 ? kInitialBytes : 2 * old_bytes;
     if (new_bytes / 2 < old_bytes) throw std::bad_alloc();  // overflow
-    void* grown;
 #if defined(__linux__)
-#if defined(GEOPROX_MAPPED_ARRAY_COPIES)
-    grown = mmap(nullptr, new_bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (grown == MAP_FAILED) throw std::bad_alloc();
-    if (data_ != nullptr) {
-      std::memcpy(grown, data_, old_bytes);
-      munmap(data_, old_bytes);
+    void* grown;
+    if (data_ == nullptr || kCopyOnGrowth) {
+      grown = mmap(nullptr, new_bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+      if (grown != MAP_FAILED && data_ != nullptr) {
+        std::memcpy(grown, data_, old_bytes);
+        munmap(data_, old_bytes);
+      }
+    } else {
+      grown = mremap(data_, old_bytes, new_bytes, MREMAP_MAYMOVE);
     }
-#else
-    grown = data_ == nullptr
-                ? mmap(nullptr, new_bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
-                       -1, 0)
-                : mremap(data_, old_bytes, new_bytes, MREMAP_MAYMOVE);
     if (grown == MAP_FAILED) throw std::bad_alloc();  // the old mapping is left as it was
-#endif
 #if defined(MADV_HUGEPAGE)
     if (new_bytes > kInitialBytes) madvise(grown, new_bytes, MADV_HUGEPAGE);  // a hint only
 #endif
 #else
-    grown = std::realloc(data_, new_bytes);
+    void* grown = std::realloc(data_, new_bytes);
     if (grown == nullptr) throw std::bad_alloc();
 #endif
     data_ = static_cast<T*>(grown);
@@ -125,6 +122,12 @@ class MappedArray {
     data_ = nullptr;
     size_ = capacity_ = 0;
   }
+
+#if defined(GEOPROX_MAPPED_ARRAY_UNDER_TSAN)
+  static constexpr bool kCopyOnGrowth = true;  // see the header comment
+#else
+  static constexpr bool kCopyOnGrowth = false;
+#endif
 
   T* data_ = nullptr;
   std::size_t size_ = 0;
