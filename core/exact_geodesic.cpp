@@ -260,11 +260,11 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
   store_limit_ = max_distance_;
   // Halfedges collect many waiting windows only when the wavefront is wide (a full solve on
   // horse.ply: 19 per batch; the 36 nearest of 5000 samples on lucy.obj: 3 per pop). Other
-  // solves keep one queue entry per window unless asked (batching made the near pairs'
-  // solves of queries 5-9% slower).
-  const bool full_solve = !targets_ && max_distance_ == kInfinity;
-  batch_halfedges_ = (full_solve || options.queue_halfedges) && options.max_queue_pops == 0;
-  // Sized at the first batched solve: the daemon's query solvers never make one.
+  // solves keep one queue entry per window unless asked: solves a few edges wide gain nothing.
+  const bool full_solve =
+      !targets_ && max_distance_ == kInfinity && options.max_windows_propagated == 0;
+  batch_halfedges_ = full_solve || options.queue_halfedges;
+  // Sized at the first batched solve.
   if (batch_halfedges_ && halfedge_queued_.empty()) {
     halfedge_queued_.assign(halfedge_state_.size(), QueuedHalfedge{kInfinity, 0, 0});
   }
@@ -292,7 +292,8 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
       stopped = true;
       break;
     }
-    if (options.max_queue_pops != 0 && stats_.queue_pops >= options.max_queue_pops &&
+    if (options.max_windows_propagated != 0 &&
+        stats_.windows_propagated >= options.max_windows_propagated &&
         top.key >= options.min_distance) {
       radius_reached_ = top.key;  // every later entry starts at least this far out
       stopped = true;

@@ -88,20 +88,21 @@ struct ExactGeodesicOptions {
   /// With targets: stop as soon as this many targets are settled (0: all of them). The
   /// settled ones are then exactly the nearest ones.
   std::size_t stop_after_targets = 0;
-  /// With stop_after_targets or max_queue_pops: do not stop before every point within this
-  /// distance is final, even when enough targets are settled (all targets within it are then
-  /// settled too) or the budget is spent.
+  /// With stop_after_targets or max_windows_propagated: do not stop before every point within
+  /// this distance is final, even when enough targets are settled (all targets within it are
+  /// then settled too) or the budget is spent.
   double min_distance = 0;
-  /// Stop after this many queue pops (0: no limit), once past min_distance: a budget of work
-  /// rather than a radius. radius_reached() is then the smallest key left, and every point
-  /// closer is final.
-  std::size_t max_queue_pops = 0;
+  /// Stop once this many windows have been propagated (0: no limit), once past min_distance: a
+  /// budget of work rather than a radius. radius_reached() is then the smallest key left, and
+  /// every point closer is final. The budget is checked between queue entries: with halfedges
+  /// queued (queue_halfedges) the last entry may take it a few windows further.
+  std::size_t max_windows_propagated = 0;
   /// Queue each halfedge's waiting windows as one entry, propagated together (VTP's
   /// organisation), in a solve with a radius or targets too; a full solve always does. It pays
   /// where the wavefront is wide: the graph builder's local solves are 6-9% faster (armadillo,
-  /// lucy), solves to the 36 nearest of 5000 samples on lucy.obj 3-10%; solves a few edges
-  /// wide (queries) gain nothing. The solver then keeps 16 bytes per halfedge of the mesh, from
-  /// its first such solve on. Ignored with max_queue_pops, whose budget counts single windows.
+  /// lucy), solves to the 36 nearest of 5000 samples on lucy.obj 3-10%, solves out to a
+  /// query's link radius on lucy.obj 9%; solves a few edges wide gain nothing. The solver then
+  /// keeps 16 bytes per halfedge of the mesh, from its first such solve on.
   bool queue_halfedges = false;
   /// Polled every 1024 queue pops; the solve throws Interrupted when it fires. Not owned.
   const QueryInterrupt* interrupt = nullptr;

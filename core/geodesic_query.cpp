@@ -193,14 +193,15 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
     ExactGeodesicSolver solver(mesh, geometry);
     ExactGeodesicOptions bounded;
     bounded.max_distance = options_.near_radius * link_radius_;
-    std::vector<std::size_t> pops;
+    bounded.queue_halfedges = true;
+    std::vector<std::size_t> windows;
     const std::uint32_t n = graph.num_samples, probes = std::min<std::uint32_t>(n, 15);
     for (std::uint32_t k = 0; k < probes; ++k) {
       solver.solve(sample_points_[(2 * k + 1) * n / (2 * probes)], bounded);
-      pops.push_back(solver.stats().queue_pops);
+      windows.push_back(solver.stats().windows_propagated);
     }
-    std::nth_element(pops.begin(), pops.begin() + pops.size() / 2, pops.end());
-    near_pops_ = std::max<std::size_t>(pops[pops.size() / 2], 1);
+    std::nth_element(windows.begin(), windows.begin() + windows.size() / 2, windows.end());
+    near_windows_ = std::max<std::size_t>(windows[windows.size() / 2], 1);
   }
   sample_positions_.reserve(graph.num_samples);
   for (std::uint32_t i = 0; i < graph.num_samples; ++i) {
@@ -338,12 +339,23 @@ bool GeodesicQuery::may_be_within_link_radius(const SurfacePoint& s, const Surfa
   return norm(s.position(*mesh_) - t.position(*mesh_)) <= link_radius_ * (1 + 1e-9);
 }
 
+// Out to rho from p. With `towards`, stopped as soon as that point is settled: a pair closer
+// than rho then needs only the disk out to its own distance, a quarter of the work at half of
+// rho; when the point lies beyond rho the solve ends at rho all the same, and links p.
 void GeodesicQuery::solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                             const QueryInterrupt* interrupt) const {
+                                             const QueryInterrupt* interrupt,
+                                             const SurfacePoint* towards) const {
   ExactGeodesicOptions bounded;
   bounded.max_distance = link_radius_;
+  bounded.queue_halfedges = true;  // as wide as rho: 9% faster (docs/exact_geodesic.md)
   bounded.interrupt = interrupt;
-  solver.solve(p, bounded);
+  std::span<const SurfacePoint> targets;
+  if (towards != nullptr) {
+    bounded.stop_after_targets = 1;
+    targets = std::span<const SurfacePoint>(towards, 1);
+  }
+  const GeodesicSource source{p, 0.0};
+  solver.solve(std::span<const GeodesicSource>(&source, 1), targets, bounded);
 }
 
 void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver,
@@ -398,6 +410,7 @@ std::vector<PathPoint> GeodesicQuery::exact_piece(const SurfacePoint& from, cons
                                                   const QueryInterrupt* interrupt) const {
   ExactGeodesicOptions bounded;
   bounded.max_distance = length * (1 + 1e-9) + 1e-300;
+  bounded.queue_halfedges = true;
   bounded.interrupt = interrupt;
   solver.solve(from, bounded);
   return solver.path_to(to).points;
@@ -609,7 +622,7 @@ double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
                                 QueryScratch::Impl& w, bool& solved_s, bool& solved_t) const {
   solved_s = solved_t = false;
   if (may_be_within_link_radius(s, t)) {
-    solve_within_link_radius(s, w.solver_s, w.interrupt);
+    solve_within_link_radius(s, w.solver_s, w.interrupt, &t);
     solved_s = true;
     const double exact = w.solver_s.distance(t);
     if (exact < kInfinity) return exact;
@@ -634,18 +647,20 @@ double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
 }
 
 // A near pair's disk around p: out to near_radius rho, and farther while it takes less work
-// than such a disk takes on average (near_pops_), up to three times that radius. Among large
-// triangles (a statue's flat base) a disk of the usual radius holds a handful of vertices, too
-// few to link or join through; there the same work reaches much farther, and p's face being
-// large (its edges longer than the mean) buys it up to three times that work, as such regions
-// border on denser ones.
+// (windows propagated) than such a disk takes on average (near_windows_), up to three times
+// that radius. Among large triangles (a statue's flat base) a disk of the usual radius holds a
+// handful of vertices, too few to link or join through; there the same work reaches much
+// farther, and p's face being large (its edges longer than the mean) buys it up to three times
+// that work, as such regions border on denser ones.
 void GeodesicQuery::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
                                const QueryInterrupt* interrupt) const {
   const double scale = sparseness(p, 2);
   ExactGeodesicOptions bounded;
   bounded.min_distance = options_.near_radius * link_radius_;
   bounded.max_distance = 3 * bounded.min_distance;
-  bounded.max_queue_pops = static_cast<std::size_t>(scale * static_cast<double>(near_pops_));
+  bounded.max_windows_propagated =
+      static_cast<std::size_t>(scale * static_cast<double>(near_windows_));
+  bounded.queue_halfedges = true;
   bounded.interrupt = interrupt;
   solver.solve(p, bounded);
 }
@@ -978,6 +993,7 @@ void GeodesicQuery::append_segment(QueryScratch::Impl& s, std::uint32_t from_sam
         const double rest = length - s.trace.length - (both ? s.trace_back.length : 0.0);
         ExactGeodesicOptions bounded;
         bounded.max_distance = rest * (1 + 1e-9) + tolerance;
+        bounded.queue_halfedges = true;
         bounded.interrupt = s.interrupt;
         s.solver_s.solve(SurfacePoint::vertex(bend), bounded);
         const double found = s.solver_s.distance(end);

@@ -246,7 +246,8 @@ class GeodesicQuery {
                                     std::uint32_t sample, QueryScratch::Impl& s,
                                     ExactGeodesicSolver& solver) const;
   void solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                const QueryInterrupt* interrupt) const;
+                                const QueryInterrupt* interrupt,
+                                const SurfacePoint* towards = nullptr) const;
   std::vector<PathPoint> exact_piece(const SurfacePoint& from, const SurfacePoint& to,
                                      double length, ExactGeodesicSolver& solver,
                                      const QueryInterrupt* interrupt) const;
@@ -276,7 +277,7 @@ class GeodesicQuery {
   std::vector<Vec3> sample_positions_;
   bool euclidean_lower_bound_ = false;  ///< edge lengths are the positions' (see search)
   double bbox_diagonal_ = 0;
-  std::size_t near_pops_ = 0;  ///< work budget of a near pair's disk (see solve_near)
+  std::size_t near_windows_ = 0;  ///< a near disk's budget, windows propagated (solve_near)
   double mean_edge_length_ = 0;  ///< of the intrinsic edges (see sparseness)
   double longest_edge_length_ = 0;  ///< of the intrinsic edges (see join_disks)
   mutable std::once_flag snap_index_once_;

@@ -672,6 +672,31 @@ TEST(GeodesicQuery, ExactBelowLinkRadius) {
   EXPECT_GE(far, 500);
 }
 
+TEST(GeodesicQuery, PairsWithinRhoInLineButNotOnTheSurfaceLinkAsUsual) {
+  // The pair's exact solve stops once t is settled; when t lies beyond rho it ends at rho and
+  // links s. Such pairs must get the answer the matrix gives, whose solves from the sources
+  // always run out to rho.
+  const QueryEnv& env = spot_env();
+  QueryScratch scratch = env.query.make_scratch();
+  const double rho = env.query.link_radius();
+  int checked = 0;
+  for (std::size_t k = 0; k < spot_pairs().size(); ++k) {
+    const ExactPair& p = spot_pairs()[k];
+    const double line = norm(p.s.position(env.mesh) - p.t.position(env.mesh));
+    if (!(line < rho && p.exact > 1.01 * rho)) continue;
+    ++checked;
+    const DistanceResult& r = spot_answers()[k];
+    const std::vector<double> m = env.query.matrix(std::span(&p.s, 1), std::span(&p.t, 1), scratch);
+    const std::string what = pair_name(p.s, p.t) + ": line " + fmt(line) + ", exact " +
+                             fmt(p.exact) + ", rho " + fmt(rho) + ", query " + fmt(r.distance) +
+                             ", matrix " + fmt(m[0]);
+    EXPECT_FALSE(r.exact) << what;
+    EXPECT_TRUE(close_rel(r.distance, m[0], kTight)) << what;
+    EXPECT_GE(r.distance, p.exact * (1 - 1e-12)) << what;
+  }
+  EXPECT_GE(checked, 5);
+}
+
 TEST(GeodesicQuery, SamePointIsZeroAndExact) {
   const QueryEnv& env = spot_env();
   QueryScratch scratch = env.query.make_scratch();
