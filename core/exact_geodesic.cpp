@@ -223,6 +223,10 @@ void ExactGeodesicSolver::check_solve_input(std::span<const GeodesicSource> sour
   if (std::isnan(options.min_distance) || options.min_distance < 0) {
     throw InvalidInput("BadRadius", "min_distance must be a non-negative number");
   }
+  if (options.goal && !(std::isfinite(options.goal->x) && std::isfinite(options.goal->y) &&
+                        std::isfinite(options.goal->z))) {
+    throw InvalidInput("BadGoal", "the goal position must be finite");
+  }
 }
 
 void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
@@ -246,7 +250,13 @@ void ExactGeodesicSolver::solve(std::span<const GeodesicSource> sources,
 
 void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
                               const GeodesicTargets& targets, const Options& options) {
+  if (options.goal && targets.size() != 1) {
+    throw InvalidInput("BadGoal", "a goal-directed solve needs exactly one target, got " +
+                                      std::to_string(targets.size()));
+  }
   reset();
+  goal_directed_ = options.goal.has_value();
+  if (goal_directed_) goal_ = *options.goal;
   sources_.assign(sources.begin(), sources.end());
   // Targets are in place before seeding so that seeds already update their estimates.
   targets_ = targets.empty() ? nullptr : &targets;
@@ -322,6 +332,7 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
     if (top.item & kVertexItem) {
       const std::uint32_t v = top.item & ~kVertexItem;
       if (vertex_emitted_[v] || top.key != vertex_distance_[v]) continue;
+      if (goal_directed_ && off_goal(top.key, goal_bound(v))) continue;
       emit_pseudo_source(v);
     } else if (top.item & kHalfedgeItem) {
       propagate_halfedge(top.halfedge, top.key);
@@ -331,6 +342,9 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
   }
   // Windows not stored start at skipped_min_key_ or farther: nothing from there on is final.
   radius_reached_ = std::min(radius_reached_, skipped_min_key_);
+  // Off-goal windows were dropped against the stop as it stood then, never below its final
+  // value: the target is final up to that value, and not beyond.
+  if (goal_directed_) radius_reached_ = std::min(radius_reached_, store_limit_);
   if (!stopped && targets_) settle_targets_up_to(radius_reached_);
   for (std::uint32_t v : touched_vertices_) {
     if (vertex_distance_[v] <= radius_reached_) ++stats_.vertices_reached;
@@ -583,6 +597,21 @@ bool ExactGeodesicSolver::trim_window(Window& w, double& key) const {
   return true;
 }
 
+double ExactGeodesicSolver::goal_bound(const Window& w) const {
+  // The straight-line distance from the goal to the window's interval, on the chord from the
+  // halfedge's origin to its target (the edge lengths being the chords, b0 and b1 map onto it
+  // by their fraction of the length). Computed on the points themselves, not from the sides of
+  // the triangle (a, b, goal): that loses half the digits where the goal is near the line.
+  const HalfedgeCrossing& crossing = geometry_->crossing(w.halfedge);
+  const Vec3& a = mesh_->position(crossing.origin);
+  const Vec3 ab = mesh_->position(crossing.target) - a;
+  const double L = crossing.layout.length;
+  const double chord2 = dot(ab, ab);
+  double t = chord2 > 0 ? dot(goal_ - a, ab) / chord2 : 0.0;
+  if (L > 0) t = std::clamp(t, w.b0 / L, w.b1 / L);
+  return norm(a + t * ab - goal_);
+}
+
 double ExactGeodesicSolver::window_key(const Window& w) {
   if (w.sx < w.b0) return w.sigma + length2(w.b0 - w.sx, w.sy);
   if (w.sx > w.b1) return w.sigma + length2(w.sx - w.b1, w.sy);
@@ -769,6 +798,12 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
     ++stats_.windows_beyond_stop;
     return;
   }
+  // Not skipped_min_key_: other points nearer than the stop lose their windows here too, but
+  // only the target's distance counts in a goal-directed solve.
+  if (goal_directed_ && off_goal(key, goal_bound(w))) {
+    ++stats_.windows_beyond_stop;
+    return;
+  }
   const double b0_trimmed = w.b0, b1_trimmed = w.b1;
   if (!trim_against_edge_windows(w)) {
     ++stats_.windows_pruned;
@@ -894,6 +929,8 @@ GEOPROX_INLINE_CALLEES
 void ExactGeodesicSolver::propagate(std::uint32_t index) {
   Window w = windows_[index];
   if (w.key == kInfinity) return;  // dropped since it was queued (it is queued only once)
+  // The target's estimate may have fallen since the window was stored.
+  if (goal_directed_ && off_goal(w.key, goal_bound(w))) return;
   // Not trimmed again against its corners: on horse, lucy and armadillo that changed 0.3% of
   // popped windows and cost a tenth of a solve. A window that a newer one trimmed keeps its
   // old key, a lower bound of its distance: it is propagated a little early, which keeps the

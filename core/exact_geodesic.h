@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <span>
 #include <utility>
 #include <vector>
@@ -104,6 +105,14 @@ struct ExactGeodesicOptions {
   /// query's link radius on lucy.obj 9%; solves a few edges wide gain nothing. The solver then
   /// keeps 16 bytes per halfedge of the mesh, from its first such solve on.
   bool queue_halfedges = false;
+  /// Goal-directed, for a solve to one target: that target's position in space, when the edge
+  /// lengths are the mesh's own (the chords of its positions: not under another metric), so
+  /// that the straight line to it bounds every point's geodesic distance to the target from
+  /// below. Windows and pseudo-sources whose distance so far plus that bound exceeds the stop
+  /// (max_distance, or the target's current estimate) are dropped: the solve explores an
+  /// ellipse around the shortest path instead of a disk. Only the target's distance and the
+  /// path to it are then exact; other points' values are upper bounds.
+  std::optional<Vec3> goal;
   /// Polled every 1024 queue pops; the solve throws Interrupted when it fires. Not owned.
   const QueryInterrupt* interrupt = nullptr;
 };
@@ -367,6 +376,13 @@ class ExactGeodesicSolver {
   double vertex_estimate(std::uint32_t v) const {
     return vertex_distance_[v];
   }
+  /// Straight-line distance from vertex v to the goal (ExactGeodesicOptions::goal).
+  double goal_bound(std::uint32_t v) const { return norm(mesh_->position(v) - goal_); }
+  double goal_bound(const Window& w) const;
+  bool off_goal(double key, double bound) const {
+    return key + bound > store_limit_ * (1 + kGoalSlack);
+  }
+  static constexpr double kGoalSlack = 1e-12;  ///< relative, against rounding in the bound
 
   const TriangleMesh* mesh_;
   const IntrinsicGeometry* geometry_;
@@ -445,6 +461,8 @@ class ExactGeodesicSolver {
   /// radius, or once the targets it waits for are settled (their estimates only fall). Such
   /// windows are not stored; the smallest key not stored caps what is final.
   double store_limit_ = kInfinity;
+  bool goal_directed_ = false;  ///< the current solve has a goal (goal_ is its position)
+  Vec3 goal_;
   double skipped_min_key_ = kInfinity;
   /// Targets waited for, up to this many, are tracked to bound the solve's stop.
   static constexpr std::size_t kMaxNearestTracked = 64;

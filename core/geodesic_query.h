@@ -246,8 +246,9 @@ class GeodesicQuery {
                                     std::uint32_t sample, QueryScratch::Impl& s,
                                     ExactGeodesicSolver& solver) const;
   void solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                const QueryInterrupt* interrupt,
-                                const SurfacePoint* towards = nullptr) const;
+                                const QueryInterrupt* interrupt) const;
+  bool solve_towards(const SurfacePoint& p, const SurfacePoint& to, double radius,
+                     ExactGeodesicSolver& solver, const QueryInterrupt* interrupt) const;
   std::vector<PathPoint> exact_piece(const SurfacePoint& from, const SurfacePoint& to,
                                      double length, ExactGeodesicSolver& solver,
                                      const QueryInterrupt* interrupt) const;

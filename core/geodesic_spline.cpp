@@ -153,6 +153,7 @@ std::vector<PathPoint> GeodesicSpline::geodesic(const SurfacePoint& a, const Sur
   }
   ExactGeodesicOptions solve;
   solve.stop_after_targets = 1;
+  solve.queue_halfedges = true;
   solve.interrupt = options.interrupt;
   const GeodesicSource source{a, 0};
   worker.solver.solve(std::span<const GeodesicSource>(&source, 1),

@@ -68,6 +68,12 @@ void IntrinsicGeometry::build(const Options& options) {
   face_area_.assign(mesh.num_faces(), 0);
   angle_sum_.assign(mesh.num_vertices(), 0);
   corner_angle_.assign(nh, 0);
+  lengths_are_chords_ = true;
+  for (std::uint32_t e = 0; e < mesh.num_edges() && lengths_are_chords_; ++e) {
+    const double chord =
+        norm(mesh.position(mesh.edge_origin(e)) - mesh.position(mesh.edge_target(e)));
+    lengths_are_chords_ = std::abs(edge_length_[e] - chord) <= 1e-12 * chord;
+  }
   double total = 0;
   for (double l : edge_length_) total += l;
   mean_edge_length_ = edge_length_.empty() ? 0 : total / static_cast<double>(edge_length_.size());

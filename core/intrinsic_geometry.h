@@ -72,6 +72,10 @@ class IntrinsicGeometry {
   double corner_angle(std::uint32_t h) const { return corner_angle_[h]; }
   double face_area(std::uint32_t f) const { return face_area_[f]; }
   double mean_edge_length() const { return mean_edge_length_; }
+  /// Every edge length is the chord between its vertices' positions (to 1e-12 relative): the
+  /// embedding's own metric, under which a straight line never exceeds a geodesic, so solvers
+  /// and searches may use straight-line distances as lower bounds. False under another metric.
+  bool lengths_are_chords() const { return lengths_are_chords_; }
   /// Vertices through which a shortest path can bend: saddles (angle sum > 2 pi), boundary
   /// vertices and corners of degenerate faces.
   bool is_pseudo_source(std::uint32_t v) const { return pseudo_source_[v] != 0; }
@@ -105,6 +109,7 @@ class IntrinsicGeometry {
   std::vector<std::uint8_t> degenerate_face_;
   std::vector<std::uint8_t> degenerate_vertex_;
   double mean_edge_length_ = 0;
+  bool lengths_are_chords_ = false;
 };
 
 }  // namespace geoprox

@@ -1194,6 +1194,15 @@ TEST(ExactGeodesicComponents, UnreachableIsInfinityNeverZero) {
   EXPECT_TRUE(tally.result());
 }
 
+std::string reason_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.reason();
+  }
+  return "(nothing thrown)";
+}
+
 TEST(ExactGeodesicInput, InvalidSourcesThrow) {
   const TestMesh tm = jittered_grid();
   ExactGeodesicSolver solver(*tm.mesh, *tm.geometry);
@@ -1204,19 +1213,19 @@ TEST(ExactGeodesicInput, InvalidSourcesThrow) {
   EXPECT_THROW(solver.solve(one(SurfacePoint::vertex(0), std::nan(""))), InvalidInput);
   const std::vector<SurfacePoint> bad_targets{SurfacePoint::face(1u << 30, 1, 0, 0)};
   EXPECT_THROW(solver.solve(one(SurfacePoint::vertex(0)), bad_targets), InvalidInput);
+  // A goal needs one target and a finite position.
+  ExactGeodesicSolver::Options directed;
+  directed.goal = tm.mesh->position(5);
+  const std::vector<SurfacePoint> two{SurfacePoint::vertex(5), SurfacePoint::vertex(6)};
+  const auto from_0 = one(SurfacePoint::vertex(0));
+  EXPECT_EQ(reason_of([&] { solver.solve(from_0, {}, directed); }), "BadGoal");
+  EXPECT_EQ(reason_of([&] { solver.solve(from_0, two, directed); }), "BadGoal");
+  directed.goal = Vec3{std::nan(""), 0, 0};
+  EXPECT_EQ(reason_of([&] { solver.solve(from_0, std::span(two).first(1), directed); }), "BadGoal");
   // The solver still works after the failures.
   solver.solve(SurfacePoint::vertex(0));
   EXPECT_NEAR(solver.distance(1u), dist(tm.mesh->position(0), tm.mesh->position(1)), 1e-15);
   EXPECT_THROW((void)solver.distance(SurfacePoint::face(99999, 1, 0, 0)), InvalidInput);
-}
-
-std::string reason_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.reason();
-  }
-  return "(nothing thrown)";
 }
 
 TEST(ExactGeodesicInput, PreparedTargets) {
@@ -1694,6 +1703,74 @@ TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
   }
   // The skipping is exercised (the checks above hold with it).
   EXPECT_GT(beyond_stop, 0u);
+  EXPECT_TRUE(tally.result());
+}
+
+TEST_P(ExactGeodesicRealMesh, GoalDirectedSolveIsExactAtItsTargetWithLessWork) {
+  // With the target's position as goal, windows that cannot reach it before the stop are
+  // dropped: the target's distance and path stay exact, and the solve does less work. Pairs
+  // from close to a third of the way across the surface; with a radius, a target beyond it
+  // stays unreached.
+  ExactGeodesicSolver full(mesh(), geometry()), plain(mesh(), geometry()), goal(mesh(), geometry());
+  Rng rng(307);
+  Tally tally(std::string(GetParam().name) + " goal-directed", scale());
+  std::size_t plain_windows = 0, goal_windows = 0;
+  for (int trial = 0; trial < count(4, 2); ++trial) {
+    const SurfacePoint s = random_face_point(mesh(), rng);
+    full.solve(s);
+    double farthest = 0;
+    for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
+      if (std::isfinite(full.distance(v))) farthest = std::max(farthest, full.distance(v));
+    }
+    std::vector<std::uint32_t> near;  // vertices within a third of the farthest distance
+    for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
+      if (full.distance(v) <= farthest / 3) near.push_back(v);
+    }
+    for (int k = 0; k < 6; ++k) {
+      // A vertex, or a point of a face around one.
+      const std::uint32_t v = near[rng.below(static_cast<std::uint32_t>(near.size()))];
+      const std::uint32_t f = mesh().outgoing_halfedges(v)[0] / 3;
+      const double b0 = rng.uniform(), b1 = (1 - b0) * rng.uniform();
+      const SurfacePoint t =
+          k % 3 == 0 ? SurfacePoint::vertex(v) : SurfacePoint::face(f, b0, b1, 1 - b0 - b1);
+      const double want = full.distance(t);
+      if (!std::isfinite(want)) continue;
+      const Vec3 at = t.position(mesh());
+      const std::vector<SurfacePoint> target{t};
+      for (const double radius : {kInfinity, 1.2 * want, 0.8 * want}) {
+        ExactGeodesicSolver::Options opt;
+        opt.max_distance = radius;
+        opt.queue_halfedges = k % 2 == 1;
+        plain.solve(one(s), target, opt);
+        opt.goal = at;
+        goal.solve(one(s), target, opt);
+        const std::string ctx = "from " + s.to_string() + " to " + t.to_string() + ", radius " +
+                                fmt(radius) + ", exact " + fmt(want);
+        if (radius < want) {
+          if (goal.distance(t) != kInfinity || !goal.settled_targets().empty()) {
+            tally.fail(ctx + ": reached beyond the radius, " + fmt(goal.distance(t)));
+          }
+          continue;
+        }
+        tally.check(goal.distance(t), want, ctx + ": distance");
+        if (goal.settled_targets().size() != 1) {
+          tally.fail(ctx + ": target not settled");
+        } else {
+          tally.check(goal.settled_target_distances()[0], want, ctx + ": settled distance");
+        }
+        const GeodesicPath path = goal.path_to(t);
+        double length = 0;
+        for (std::size_t i = 1; i < path.points.size(); ++i) {
+          length += norm(path.points[i].position - path.points[i - 1].position);
+        }
+        tally.check(length, want, ctx + ": path length");
+        plain_windows += plain.stats().windows_created;
+        goal_windows += goal.stats().windows_created;
+      }
+    }
+  }
+  EXPECT_GT(plain_windows, 0u);
+  EXPECT_LT(goal_windows, plain_windows);
   EXPECT_TRUE(tally.result());
 }
 

@@ -94,5 +94,16 @@ TEST(IntrinsicGeometry, CrossingRecordsFollowExplicitEdgeLengths) {
   }
 }
 
+TEST(IntrinsicGeometry, KnowsWhetherItsLengthsAreTheChords) {
+  // Straight lines bound geodesics from below only under the embedding's own lengths: the
+  // positions' chords, given as such or as explicit lengths, but not one edge changed.
+  const TestMesh& spot = test_support::spot();
+  EXPECT_TRUE(spot.geometry->lengths_are_chords());
+  EXPECT_TRUE(IntrinsicGeometry(*spot.mesh, spot.geometry->edge_lengths()).lengths_are_chords());
+  std::vector<double> lengths = spot.geometry->edge_lengths();
+  lengths[lengths.size() / 2] *= 1 + 1e-9;
+  EXPECT_FALSE(IntrinsicGeometry(*spot.mesh, lengths).lengths_are_chords());
+}
+
 }  // namespace
 }  // namespace geoprox

@@ -114,15 +114,31 @@ TEST_F(MethodsTest, NearPairsEqualInProcessWithTheirSolvesSplitAcrossThreads) {
 }
 
 TEST_F(MethodsTest, ExactDistanceEqualsTheExactSolver) {
+  // The server bounds its exact solve by the graph's answer and directs it at the target; the
+  // answers must be a full solve's, near and far, at vertices, edges and faces.
   Client c(server_->port());
-  const json result = c.result(
-      "geodesic.distance",
-      {{"mesh", "spot"}, {"source", "v:0"}, {"target", "f:100:0.2:0.3:0.5"}, {"exact", true}});
   ExactGeodesicSolver solver(reference_->mesh, reference_->geometry);
-  solver.solve(SurfacePoint::vertex(0));
-  EXPECT_TRUE(result["exact"].get<bool>());
-  EXPECT_NEAR(result["distance"].get<double>(),
-              solver.distance(SurfacePoint::face(100, 0.2, 0.3, 0.5)), 1e-12);
+  const std::vector<std::pair<SurfacePoint, std::string>> sources{
+      {SurfacePoint::vertex(0), "v:0"},
+      {SurfacePoint::face(2000, 0.3, 0.3, 0.4), "f:2000:0.3:0.3:0.4"}};
+  const std::vector<std::pair<SurfacePoint, std::string>> targets{
+      {SurfacePoint::face(100, 0.2, 0.3, 0.5), "f:100:0.2:0.3:0.5"},
+      {SurfacePoint::vertex(1), "v:1"},
+      {SurfacePoint::vertex(2900), "v:2900"},
+      {SurfacePoint::edge(5000, 0.25), "e:5000:0.25"},
+      {SurfacePoint::face(2000, 0.3, 0.3, 0.4), "f:2000:0.3:0.3:0.4"}};
+  for (const auto& [s, s_text] : sources) {
+    solver.solve(s);
+    for (const auto& [t, t_text] : targets) {
+      const json result = c.result("geodesic.distance", {{"mesh", "spot"},
+                                                         {"source", s_text},
+                                                         {"target", t_text},
+                                                         {"exact", true}});
+      EXPECT_TRUE(result["exact"].get<bool>()) << s_text << " " << t_text;
+      EXPECT_NEAR(result["distance"].get<double>(), solver.distance(t), 1e-12)
+          << s_text << " " << t_text;
+    }
+  }
 }
 
 TEST_F(MethodsTest, PathEqualsInProcess) {
