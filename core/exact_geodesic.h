@@ -12,7 +12,9 @@
 // are saddle vertices (emitting only into their shadow), boundary vertices and corners of
 // zero-area faces; flat vertices are passed straight through.
 //
-// Reads only IntrinsicGeometry (edge lengths): positions are used only to report path points.
+// Reads only IntrinsicGeometry (edge lengths): positions are used only to report path points,
+// and for the straight-line bound of a goal-directed solve (Options::goal), which callers ask
+// for only when the lengths are the positions' chords.
 #pragma once
 
 #include <algorithm>

@@ -879,6 +879,26 @@ PairAnswer GeodesicQuery::answer(const SurfacePoint& s, const SurfacePoint& t,
   return a;
 }
 
+DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const SurfacePoint& t,
+                                             QueryScratch& scratch) const {
+  s.validate(*mesh_);
+  t.validate(*mesh_);
+  QueryScratch::Impl& w = *scratch.impl_;
+  // On lucy.obj, pairs 4 to 5 rho apart: 24 -> 2.3 ms, the graph query included. Without the
+  // bound (another metric), or should the bounded solve not reach t (a bug in the graph), the
+  // solve runs unbounded.
+  const double bound = euclidean_lower_bound_ ? answer(s, t, w).distance : kInfinity;
+  if (bound < kInfinity) solve_towards(s, t, bound * (1 + 1e-9), w.solver_s, w.interrupt);
+  if (!(bound < kInfinity) || w.solver_s.settled_targets().empty()) {
+    solve_towards(s, t, kInfinity, w.solver_s, w.interrupt);
+  }
+  if (w.solver_s.settled_targets().empty()) throw unreachable(s, t);
+  DistanceResult result;
+  result.distance = w.solver_s.settled_target_distances()[0];
+  result.exact = true;
+  return result;
+}
+
 DistanceResult GeodesicQuery::distance(const SurfacePoint& s, const SurfacePoint& t,
                                        QueryScratch& scratch) const {
   s.validate(*mesh_);

@@ -185,6 +185,13 @@ class GeodesicQuery {
 
   QueryScratch make_scratch() const;
 
+  /// The exact geodesic distance between two surface points, from the exact solver rather than
+  /// the graph (`exact` is true). Under the mesh's own lengths the graph's answer, never below
+  /// the distance, bounds a goal-directed solve (ExactGeodesicOptions::goal): it explores an
+  /// ellipse around the geodesic instead of the disk out to t. Throws as distance() does.
+  DistanceResult exact_distance(const SurfacePoint& s, const SurfacePoint& t,
+                                QueryScratch& scratch) const;
+
   /// Geodesic distance between two surface points. Throws InvalidInput for invalid points and
   /// Unreachable when they lie in different components.
   DistanceResult distance(const SurfacePoint& s, const SurfacePoint& t,

@@ -2,7 +2,8 @@
 // "intrinsic triangulation" view of Sharp, Soliman & Crane 2019 in its simplest form).
 //
 // Every geodesic solver in geoprox reads lengths from here and never positions, so a Riemannian
-// metric (other edge lengths) changes nothing in the solvers. For each halfedge h = a->b of face
+// metric (other edge lengths) changes nothing in the solvers (a goal-directed exact solve bounds
+// distances by straight lines, only when lengths_are_chords()). For each halfedge h = a->b of face
 // (a, b, c) the face is laid out in h's frame: a = (0, 0), b = (L, 0), c = (cx, cy) with cy >= 0.
 // The frame of face f is the frame of its halfedge 3f (origin at its corner 0).
 #pragma once

@@ -55,14 +55,6 @@ LoadedMesh::Lease::~Lease() {
   owner_->pool_cv_.notify_one();
 }
 
-ExactGeodesicSolver& LoadedMesh::Lease::exact_solver() {
-  if (!slot_->exact) {
-    slot_->exact =
-        std::make_unique<ExactGeodesicSolver>(owner_->data_->mesh, owner_->data_->geometry);
-  }
-  return *slot_->exact;
-}
-
 ExponentialMap& LoadedMesh::Lease::exponential_map() {
   if (!slot_->expmap) slot_->expmap = std::make_unique<ExponentialMap>(owner_->query());
   return *slot_->expmap;
@@ -93,7 +85,7 @@ LoadedMesh::Lease LoadedMesh::lease() const {
       lock.unlock();
       try {
         auto slot = std::make_unique<ScratchSlot>(ScratchSlot{
-            query_->make_scratch(), nullptr, nullptr, nullptr, std::this_thread::get_id()});
+            query_->make_scratch(), nullptr, nullptr, std::this_thread::get_id()});
         slot->scratch.set_run_both(run_both_);
         return Lease(this, std::move(slot));
       } catch (...) {

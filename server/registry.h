@@ -28,7 +28,6 @@
 #include <thread>
 #include <vector>
 
-#include "core/exact_geodesic.h"
 #include "core/exponential_map.h"
 #include "core/geodesic_query.h"
 #include "core/geodesic_spline.h"
@@ -49,12 +48,11 @@ struct MeshData {
   IntrinsicGeometry geometry;
 };
 
-/// Per-request working memory on one LoadedMesh: the query scratch and, for the requests that
-/// need them, an exact solver, an exponential map and a spline evaluator (each created on first
-/// use, then reused: they hold buffers sized by the mesh).
+/// Per-request working memory on one LoadedMesh: the query scratch (which exact distances use
+/// too) and, for the requests that need them, an exponential map and a spline evaluator (each
+/// created on first use, then reused: they hold buffers sized by the mesh).
 struct ScratchSlot {
   QueryScratch scratch;
-  std::unique_ptr<ExactGeodesicSolver> exact;
   std::unique_ptr<ExponentialMap> expmap;
   std::unique_ptr<GeodesicSpline> spline;
   /// The thread that leased it last: lease() gives a thread back its own slot when free, whose
@@ -82,7 +80,6 @@ class LoadedMesh {
     Lease& operator=(Lease&&) = delete;
     ~Lease();
     QueryScratch& scratch() { return slot_->scratch; }
-    ExactGeodesicSolver& exact_solver();
     ExponentialMap& exponential_map();
     GeodesicSpline& spline();
 

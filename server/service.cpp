@@ -134,44 +134,6 @@ void check_output(std::size_t min_bytes, const protocol::Limits& limits, const c
   }
 }
 
-// The exact distance from s to t, or infinity when t is unreachable. The solve stops once t is
-// settled. Under the mesh's own lengths the graph's answer, the length of a real path and so
-// never below the exact distance, bounds it, and the solve is goal-directed (pruning 5 of
-// docs/exact_geodesic.md): it explores an ellipse around the geodesic instead of the disk out
-// to t (lucy.obj, pairs 4 to 5 link radii apart: 24 -> 2.3 ms, the graph query included).
-double exact_distance(const SurfacePoint& s, const SurfacePoint& t, const LoadedMesh& m,
-                      LoadedMesh::Lease& lease, RequestContext& context) {
-  ExactGeodesicSolver& solver = lease.exact_solver();
-  ExactGeodesicOptions options;
-  options.stop_after_targets = 1;
-  options.queue_halfedges = true;
-  options.interrupt = &context.interrupt;
-  const GeodesicSource source{s, 0};
-  auto solve = [&] {
-    solver.solve(std::span<const GeodesicSource>(&source, 1), std::span<const SurfacePoint>(&t, 1),
-                 options);
-    return solver.settled_targets().empty() ? kInfinity : solver.settled_target_distances()[0];
-  };
-  if (m.query().geometry().lengths_are_chords()) {
-    double bound = kInfinity;
-    try {
-      bound = m.query().distance(s, t, lease.scratch()).distance;
-    } catch (const Unreachable&) {
-      // The graph finds no path: the unbounded solve below decides.
-    }
-    if (std::isfinite(bound)) {
-      options.max_distance = bound * (1 + 1e-9);
-      options.goal = t.position(m.mesh());
-      const double d = solve();
-      if (std::isfinite(d)) return d;
-      // Not reached within the bound (it would be a bug in the graph): solve without it.
-      options.max_distance = kInfinity;
-      options.goal.reset();
-    }
-  }
-  return solve();
-}
-
 protocol::DistanceResult run_distance(const protocol::DistanceParams& p, const LoadedMesh& m,
                                       RequestContext& context) {
   const SurfacePoint s = resolve(p.source, m, "params.source");
@@ -182,20 +144,11 @@ protocol::DistanceResult run_distance(const protocol::DistanceParams& p, const L
   r.mesh_version = m.version();
   r.source = p.source;
   r.target = p.target;
-  if (p.exact) {
-    r.distance = exact_distance(s, t, m, lease, context);
-    if (!std::isfinite(r.distance)) {
-      throw ProtocolError(ErrorReason::Unreachable,
-                          "params.target " + protocol::to_text(p.target) +
-                              " is not reachable from params.source " +
-                              protocol::to_text(p.source) + " (another component)");
-    }
-    r.exact = true;
-  } else {
-    const DistanceResult d = m.query().distance(s, t, lease.scratch());
-    r.distance = d.distance;
-    r.exact = d.exact;
-  }
+  // Exact: the exact solver, bounded by the graph's answer and goal-directed (GeodesicQuery).
+  const DistanceResult d = p.exact ? m.query().exact_distance(s, t, lease.scratch())
+                                   : m.query().distance(s, t, lease.scratch());
+  r.distance = d.distance;
+  r.exact = d.exact;
   return r;
 }
 

@@ -697,6 +697,36 @@ TEST(GeodesicQuery, PairsWithinRhoInLineButNotOnTheSurfaceLinkAsUsual) {
   EXPECT_GE(checked, 5);
 }
 
+TEST(GeodesicQuery, ExactDistanceIsTheExactSolvers) {
+  // Bounded by the graph's answer and goal-directed, or under another metric (no straight-line
+  // bound) a plain solve: either way the exact distance, near or far.
+  const QueryEnv& env = spot_env();
+  QueryScratch scratch = env.query.make_scratch();
+  int checked = 0;
+  for (std::size_t k = 0; k < spot_pairs().size(); k += 7) {
+    const ExactPair& p = spot_pairs()[k];
+    const DistanceResult r = env.query.exact_distance(p.s, p.t, scratch);
+    EXPECT_TRUE(r.exact) << pair_name(p.s, p.t);
+    EXPECT_TRUE(close_rel(r.distance, p.exact, kTight))
+        << pair_name(p.s, p.t) << ": " << fmt(r.distance) << ", exact " << fmt(p.exact);
+    ++checked;
+  }
+  EXPECT_GE(checked, 100);
+  // The same mesh under a metric (every edge twice as long): the distances double.
+  std::vector<double> doubled = env.geometry.edge_lengths();
+  for (double& l : doubled) l *= 2;
+  const IntrinsicGeometry metric(env.mesh, doubled);
+  ASSERT_FALSE(metric.lengths_are_chords());
+  const GeodesicQuery metric_query(env.mesh, metric, env.graph.view());
+  QueryScratch metric_scratch = metric_query.make_scratch();
+  for (std::size_t k = 0; k < spot_pairs().size(); k += 97) {
+    const ExactPair& p = spot_pairs()[k];
+    EXPECT_TRUE(close_rel(metric_query.exact_distance(p.s, p.t, metric_scratch).distance,
+                          2 * p.exact, kTight))
+        << pair_name(p.s, p.t);
+  }
+}
+
 TEST(GeodesicQuery, SamePointIsZeroAndExact) {
   const QueryEnv& env = spot_env();
   QueryScratch scratch = env.query.make_scratch();
@@ -1334,6 +1364,10 @@ TEST(GeodesicQuery, DisjointComponentsAreUnreachable) {
               "")
         << pair_name(a, b);
     EXPECT_EQ(expect_throw_reason<Unreachable>([&] { env.query.path(a, b, scratch); },
+                                               "Unreachable"),
+              "")
+        << pair_name(a, b);
+    EXPECT_EQ(expect_throw_reason<Unreachable>([&] { env.query.exact_distance(a, b, scratch); },
                                                "Unreachable"),
               "")
         << pair_name(a, b);

@@ -332,6 +332,10 @@ TEST_F(MethodsTest, UnreachableIsAnErrorInDistanceAndNullInMatrix) {
   ASSERT_TRUE(reply.contains("error")) << reply.dump();
   EXPECT_EQ(reply["error"]["data"]["reason"], "Unreachable");
   EXPECT_EQ(reply["error"]["code"], -32010);
+  const json exact = c.call("geodesic.distance",
+                            {{"mesh", "two"}, {"source", "v:0"}, {"target", far}, {"exact", true}});
+  ASSERT_TRUE(exact.contains("error")) << exact.dump();
+  EXPECT_EQ(exact["error"]["data"]["reason"], "Unreachable");
   const json matrix =
       c.result("geodesic.matrix", {{"mesh", "two"}, {"sources", {"v:0"}}, {"targets", {"v:0", far}}});
   EXPECT_EQ(matrix["distances"][0][0], 0.0);
