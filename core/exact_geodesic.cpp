@@ -255,8 +255,7 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
                                       std::to_string(targets.size()));
   }
   reset();
-  goal_directed_ = options.goal.has_value();
-  if (goal_directed_) goal_ = *options.goal;
+  goal_ = options.goal;
   sources_.assign(sources.begin(), sources.end());
   // Targets are in place before seeding so that seeds already update their estimates.
   targets_ = targets.empty() ? nullptr : &targets;
@@ -332,7 +331,7 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
     if (top.item & kVertexItem) {
       const std::uint32_t v = top.item & ~kVertexItem;
       if (vertex_emitted_[v] || top.key != vertex_distance_[v]) continue;
-      if (goal_directed_ && off_goal(top.key, goal_bound(v))) continue;
+      if (goal_ && off_goal(top.key, goal_bound(v))) continue;
       emit_pseudo_source(v);
     } else if (top.item & kHalfedgeItem) {
       propagate_halfedge(top.halfedge, top.key);
@@ -344,7 +343,7 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
   radius_reached_ = std::min(radius_reached_, skipped_min_key_);
   // Off-goal windows were dropped against the stop as it stood then, never below its final
   // value: the target is final up to that value, and not beyond.
-  if (goal_directed_) radius_reached_ = std::min(radius_reached_, store_limit_);
+  if (goal_) radius_reached_ = std::min(radius_reached_, store_limit_);
   if (!stopped && targets_) settle_targets_up_to(radius_reached_);
   for (std::uint32_t v : touched_vertices_) {
     if (vertex_distance_[v] <= radius_reached_) ++stats_.vertices_reached;
@@ -607,9 +606,9 @@ double ExactGeodesicSolver::goal_bound(const Window& w) const {
   const Vec3 ab = mesh_->position(crossing.target) - a;
   const double L = crossing.layout.length;
   const double chord2 = dot(ab, ab);
-  double t = chord2 > 0 ? dot(goal_ - a, ab) / chord2 : 0.0;
+  double t = chord2 > 0 ? dot(*goal_ - a, ab) / chord2 : 0.0;
   if (L > 0) t = std::clamp(t, w.b0 / L, w.b1 / L);
-  return norm(a + t * ab - goal_);
+  return norm(a + t * ab - *goal_);
 }
 
 double ExactGeodesicSolver::window_key(const Window& w) {
@@ -800,7 +799,7 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   }
   // Not skipped_min_key_: other points nearer than the stop lose their windows here too, but
   // only the target's distance counts in a goal-directed solve.
-  if (goal_directed_ && off_goal(key, goal_bound(w))) {
+  if (goal_ && off_goal(key, goal_bound(w))) {
     ++stats_.windows_beyond_stop;
     return;
   }
@@ -930,7 +929,7 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   Window w = windows_[index];
   if (w.key == kInfinity) return;  // dropped since it was queued (it is queued only once)
   // The target's estimate may have fallen since the window was stored.
-  if (goal_directed_ && off_goal(w.key, goal_bound(w))) return;
+  if (goal_ && off_goal(w.key, goal_bound(w))) return;
   // Not trimmed again against its corners: on horse, lucy and armadillo that changed 0.3% of
   // popped windows and cost a tenth of a solve. A window that a newer one trimmed keeps its
   // old key, a lower bound of its distance: it is propagated a little early, which keeps the

@@ -379,7 +379,7 @@ class ExactGeodesicSolver {
     return vertex_distance_[v];
   }
   /// Straight-line distance from vertex v to the goal (ExactGeodesicOptions::goal).
-  double goal_bound(std::uint32_t v) const { return norm(mesh_->position(v) - goal_); }
+  double goal_bound(std::uint32_t v) const { return norm(mesh_->position(v) - *goal_); }
   double goal_bound(const Window& w) const;
   bool off_goal(double key, double bound) const {
     return key + bound > store_limit_ * (1 + kGoalSlack);
@@ -463,8 +463,7 @@ class ExactGeodesicSolver {
   /// radius, or once the targets it waits for are settled (their estimates only fall). Such
   /// windows are not stored; the smallest key not stored caps what is final.
   double store_limit_ = kInfinity;
-  bool goal_directed_ = false;  ///< the current solve has a goal (goal_ is its position)
-  Vec3 goal_;
+  std::optional<Vec3> goal_;  ///< the current solve's goal (ExactGeodesicOptions::goal)
   double skipped_min_key_ = kInfinity;
   /// Targets waited for, up to this many, are tracked to bound the solve's stop.
   static constexpr std::size_t kMaxNearestTracked = 64;

@@ -207,9 +207,6 @@ GeodesicQuery::GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& 
   for (std::uint32_t i = 0; i < graph.num_samples; ++i) {
     sample_positions_.push_back(mesh.position(graph.sample_vertex[i]));
   }
-  // Straight-line distances bound geodesic ones from below only when the intrinsic lengths are
-  // the embedding's (not under another metric).
-  euclidean_lower_bound_ = geometry.lengths_are_chords();
 }
 
 GeodesicQuery::~GeodesicQuery() = default;
@@ -329,7 +326,7 @@ bool GeodesicQuery::link_through_covers(const ExactGeodesicSolver& solver, doubl
 }
 
 bool GeodesicQuery::may_be_within_link_radius(const SurfacePoint& s, const SurfacePoint& t) const {
-  if (!euclidean_lower_bound_) return true;
+  if (!geometry_->lengths_are_chords()) return true;
   // The straight line is never longer than the geodesic when lengths are the embedding's.
   return norm(s.position(*mesh_) - t.position(*mesh_)) <= link_radius_ * (1 + 1e-9);
 }
@@ -357,7 +354,7 @@ bool GeodesicQuery::solve_towards(const SurfacePoint& p, const SurfacePoint& to,
   bounded.stop_after_targets = 1;
   bounded.queue_halfedges = true;
   bounded.interrupt = interrupt;
-  if (euclidean_lower_bound_) bounded.goal = to.position(*mesh_);
+  if (geometry_->lengths_are_chords()) bounded.goal = to.position(*mesh_);
   const GeodesicSource source{p, 0.0};
   solver.solve(std::span<const GeodesicSource>(&source, 1), std::span<const SurfacePoint>(&to, 1),
                bounded);
@@ -528,7 +525,7 @@ double GeodesicQuery::search_bidirectional(QueryScratch::Impl& s, const Links& f
   // edge, so p(v) = (|v t| - |v s|) / 2 keeps every reduced edge length non-negative for the
   // forward front (keys label + p) and the backward one (keys label - p), and the usual stop
   // rule (top keys summing to the best meeting) stays exact. Otherwise p = 0: plain Dijkstra.
-  const bool directed = euclidean_lower_bound_;
+  const bool directed = geometry_->lengths_are_chords();
   auto potential = [&](std::uint32_t i) {
     if (!directed) return 0.0;
     // Callers touch i first (seed_side, settle_and_relax), which resets the cached value.
@@ -884,18 +881,26 @@ DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const Surfac
   s.validate(*mesh_);
   t.validate(*mesh_);
   QueryScratch::Impl& w = *scratch.impl_;
+  DistanceResult result;
+  result.exact = true;
   // On lucy.obj, pairs 4 to 5 rho apart: 24 -> 2.3 ms, the graph query included. Without the
   // bound (another metric), or should the bounded solve not reach t (a bug in the graph), the
   // solve runs unbounded.
-  const double bound = euclidean_lower_bound_ ? answer(s, t, w).distance : kInfinity;
+  double bound = kInfinity;
+  if (geometry_->lengths_are_chords()) {
+    const PairAnswer a = answer(s, t, w);
+    if (a.from == PairAnswer::From::SolveS || a.from == PairAnswer::From::SolveT) {
+      result.distance = a.distance;  // a close pair: the query solved it exactly already
+      return result;
+    }
+    bound = a.distance;
+  }
   if (bound < kInfinity) solve_towards(s, t, bound * (1 + 1e-9), w.solver_s, w.interrupt);
   if (!(bound < kInfinity) || w.solver_s.settled_targets().empty()) {
     solve_towards(s, t, kInfinity, w.solver_s, w.interrupt);
   }
   if (w.solver_s.settled_targets().empty()) throw unreachable(s, t);
-  DistanceResult result;
   result.distance = w.solver_s.settled_target_distances()[0];
-  result.exact = true;
   return result;
 }
 

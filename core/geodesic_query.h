@@ -283,7 +283,6 @@ class GeodesicQuery {
   /// Every sample, prepared once for the solves to the nearest ones (shared by all scratches).
   std::optional<GeodesicTargets> sample_targets_;
   std::vector<Vec3> sample_positions_;
-  bool euclidean_lower_bound_ = false;  ///< edge lengths are the positions' (see search)
   double bbox_diagonal_ = 0;
   std::size_t near_windows_ = 0;  ///< a near disk's budget, windows propagated (solve_near)
   double mean_edge_length_ = 0;  ///< of the intrinsic edges (see sparseness)
