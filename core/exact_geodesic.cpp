@@ -90,6 +90,9 @@ HalfedgeAxes halfedge_axes(const IntrinsicGeometry& g, std::uint32_t f, int i) {
   const Vec2 origin = g.face_corner(f, i);
   const Vec2 to = g.face_corner(f, (i + 1) % 3);
   const double len = g.layout(3 * f + static_cast<std::uint32_t>(i)).length;
+  // A zero-length side (coincident corners) has no direction: the face's own axes stand in,
+  // so that nothing derived from it (end directions) is NaN.
+  if (!(len > 0)) return {origin, 1, 0};
   return {origin, (to.x - origin.x) / len, (to.y - origin.y) / len};
 }
 
@@ -111,7 +114,7 @@ struct ExactGeodesicSolver::Candidate {
 
 ExactGeodesicSolver::ExactGeodesicSolver(const TriangleMesh& mesh,
                                          const IntrinsicGeometry& geometry)
-    : mesh_(&mesh), geometry_(&geometry) {
+    : mesh_(&mesh), geometry_(&geometry), near_miss_(kNearMiss * geometry.mean_edge_length()) {
   GEOPROX_ASSERT(&geometry.mesh() == &mesh, "geometry was built for another mesh");
   const std::size_t nv = mesh.num_vertices(), nf = mesh.num_faces();
   vertex_distance_.assign(nv, kInfinity);
@@ -961,15 +964,26 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   }
 
   if (!(cy - sy > 0)) {
-    // Source on the line of a zero-area face: only its far corner is reached, straight along
-    // the line; the neighbours continue from the face's corners (pseudo-sources).
+    // Source on the line of a zero-area face (cy = sy = 0): the face is a piece of that line.
     relax_vertex(crossing.opposite, w.sigma + length2(cx - sx, cy - sy), self, kViaNone,
                  w.source_index);
+    propagate_along_line(w, self, crossing);
     return;
   }
   // Where the ray from S through the opposite corner c crosses the edge line.
   const double xc = w.crossing_x(cx, cy);
+  // A corner not reached yet whose ray passes just outside the interval is reached through
+  // its nearer end (a real path, longer by a second-order amount), by a margin on the mesh's
+  // scale: windows reaching an edge from different parents agree on their common end only to
+  // rounding, and around needles that is coarse (their layouts are good to ~1e-10 of the
+  // mesh), so a corner passed by a hair on both sides was left unreachable or reached the long
+  // way round. Only a corner not reached yet: one reached already has a value from a ray that
+  // hit, or will get one, and an early bent value would only queue a pseudo-source twice.
   if (xc >= w.b0 - end_slack && xc <= w.b1 + end_slack) {
+    relax_vertex(crossing.opposite, through_window(w, xc, cx, cy), self, kViaNone,
+                 w.source_index);
+  } else if (xc >= w.b0 - end_slack - near_miss_ && xc <= w.b1 + end_slack + near_miss_ &&
+             vertex_distance_[crossing.opposite] == kInfinity) {
     relax_vertex(crossing.opposite, through_window(w, xc, cx, cy), self, kViaNone,
                  w.source_index);
   }
@@ -1014,6 +1028,74 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
                     w.source_index);
     }
   }
+}
+
+// Out of line: rare (zero-area faces only), and flattened into propagate() it cost the common
+// path registers.
+[[gnu::noinline]] void ExactGeodesicSolver::propagate_along_line(const Window& w, std::int32_t self,
+                                                                const HalfedgeCrossing& crossing) {
+  // The window's source S lies on the line of the zero-area face it enters, and so do the
+  // face's other two sides: its rays run along the line and go on through them, into the faces
+  // beyond, where S lies on the entry edge's line again (create_window keeps such a window if S
+  // lies within its interval: it then sees the whole face ahead, as a source on that edge; else
+  // the rays only graze that face). Without this a path from a point of a zero-area fin (a
+  // face folded onto a boundary edge, or a column of faces between coincident vertices) had to
+  // bend at one of the line's vertices. Along the line the rays reach, from S, every point past
+  // the interval; when S lies within it, the whole line.
+  const HalfedgeLayout& lay = crossing.layout;
+  const double L = lay.length, cx = lay.cx, sx = w.sx;
+  const double slack = kVisibilitySlack * L;
+  const double mean_edge = geometry_->mean_edge_length();
+  double reach_lo = -kInfinity, reach_hi = kInfinity;
+  if (sx < w.b0 - slack) reach_lo = w.b0;
+  if (sx > w.b1 + slack) reach_hi = w.b1;
+  // One child per side: its points run from `from` to `to` on the line (in this halfedge's
+  // frame), in the frame of halfedge t whose origin is `from`.
+  auto child = [&](std::int32_t t, double from, double to) {
+    const double lc = std::abs(to - from);
+    if (t < 0 || !(lc > 0)) return;
+    const double dir = to > from ? 1.0 : -1.0;
+    // Line coordinate x = from + dir * u for u in [0, lc].
+    double u0 = dir > 0 ? reach_lo - from : from - reach_hi;
+    double u1 = dir > 0 ? reach_hi - from : from - reach_lo;
+    u0 = std::max(u0, 0.0);
+    u1 = std::min(u1, lc);
+    if (!(u1 >= u0)) return;
+    const auto h = static_cast<std::uint32_t>(t);
+    const double new_sx = dir * (sx - from);
+    const double same = 1e-9 * (lc + std::abs(new_sx) + w.sigma) + 1e-12 * mean_edge;
+    // S at an end of that side is a corner of this zero-area face, a pseudo-source reached at
+    // this distance (below): it emits into the faces around it itself. A window standing for
+    // it would carry the corner's view from face to face around a cluster of coincident
+    // vertices, with nothing to stop it coming round again.
+    if (std::abs(new_sx) <= same || std::abs(new_sx - lc) <= same) return;
+    // Along a line of zero-area faces the rays can come back to a side they crossed (a fan of
+    // such faces around a vertex): the same window again, no longer and not pruned by the ties
+    // it makes. A window there from the same source, over at least this interval, already did
+    // the work.
+    // (`same` is against the mesh's scale too: in a cluster of coincident vertices the lengths
+    // are rounding, and so are the differences between the copies.)
+    for (std::int32_t c = first_chunk(h); c >= 0; c = chunks_[c].next) {
+      const SpanChunk& chunk = chunks_[c];
+      for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
+        const Window& o = windows_[static_cast<std::size_t>(chunk.window[i] & kListedIndex)];
+        if (o.sy == 0 && std::abs(o.sx - new_sx) <= same && std::abs(o.sigma - w.sigma) <= same &&
+            o.source_index == w.source_index && o.b0 <= u0 + same && o.b1 >= u1 - same) {
+          return;
+        }
+      }
+    }
+    create_window(h, u0, u1, {new_sx, 0.0}, w.sigma, self, w.root, w.source_index);
+  };
+  // The edge's own ends, straight along the line when the rays reach them (the far corner c
+  // is relaxed by the caller).
+  for (const auto& [v, x] : {std::pair{crossing.origin, 0.0}, std::pair{crossing.target, L}}) {
+    if (x >= reach_lo && x <= reach_hi) {
+      relax_vertex(v, w.sigma + std::abs(x - sx), self, kViaNone, w.source_index);
+    }
+  }
+  child(crossing.twin_prev, 0, cx);  // side a -> c
+  child(crossing.twin_next, cx, L);  // side c -> b
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1253,7 +1335,12 @@ FaceDirection halfedge_direction(const IntrinsicGeometry& g, std::uint32_t h, do
   dy /= len;
   if (i == 0) return {f, dx, dy};
   const HalfedgeAxes a = halfedge_axes(g, f, i);
-  return {f, dx * a.ex - dy * a.ey, dx * a.ey + dy * a.ex};
+  // The axes are unit only to the rounding of the side's layout, which a cap or needle makes
+  // coarse: normalise the result, a unit vector by contract.
+  const double x = dx * a.ex - dy * a.ey, y = dx * a.ey + dy * a.ex;
+  const double norm = length2(x, y);
+  if (!(norm > 0)) return {f, dx, dy};
+  return {f, x / norm, y / norm};
 }
 
 FaceDirection reversed(FaceDirection d) { return {d.face, -d.x, -d.y}; }
@@ -1352,6 +1439,10 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
   std::size_t guard = 0;
   bool piece_started = false;  // inside a window chain, its target-side direction is recorded
   bool p_on_edge_end = false;  // p is an end vertex of the window's edge
+  // The chain's target-side point, carried into each parent's frame with p: a chain is one
+  // straight segment in the unfolding, and where the crossings all lie at its source (a
+  // source on a line of zero-area faces) only this point still gives its direction.
+  Vec2 far{};
   while (!done) {
     GEOPROX_ASSERT(++guard < guard_limit, "backtrace does not terminate");
     if (window >= 0) {
@@ -1359,6 +1450,7 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
       const HalfedgeLayout& lay = g.layout(w.halfedge);
       if (!piece_started) {
         piece_started = true;
+        far = p;
         // From a point inside the face the segment runs in this face; from an end vertex of
         // the window's edge it runs into the face across that edge, behind which S lies.
         const std::int32_t across = mesh_->twin(w.halfedge);
@@ -1380,11 +1472,24 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
         const HalfedgeLayout& play = g.layout(ph);
         const auto twin = static_cast<std::uint32_t>(mesh_->twin(w.halfedge));
         const double along = lay.length > 0 ? (lay.length - x) / lay.length : 0;  // on the twin
+        // The parent's side from A to B is the twin of this window's edge, which runs from B.
+        Vec2 a_end, b_end;
         if (twin == TriangleMesh::next(ph)) {  // b' -> c'
           p = {play.length + along * (play.cx - play.length), along * play.cy};
+          a_end = {play.length, 0};
+          b_end = {play.cx, play.cy};
         } else {
           GEOPROX_ASSERT(twin == TriangleMesh::prev(ph), "window chain is not adjacent");
           p = {play.cx * (1 - along), play.cy * (1 - along)};  // c' -> a'
+          a_end = {play.cx, play.cy};
+          b_end = {0, 0};
+        }
+        const double side = length2(a_end.x - b_end.x, a_end.y - b_end.y);
+        if (side > 0) {
+          const double ex = (a_end.x - b_end.x) / side, ey = (a_end.y - b_end.y) / side;
+          far = {b_end.x + far.x * ex - far.y * ey, b_end.y + far.x * ey + far.y * ex};
+        } else {
+          far = p;
         }
         window = w.parent;
         continue;
@@ -1395,7 +1500,9 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
       // source when the source lies on the root's edge (a zero-area face behind it).
       piece_started = false;
       if (w.sy == 0) {
-        path.direction_at_source = halfedge_direction(g, w.halfedge, p.x - w.sx, p.y - w.sy);
+        const double to_far = length2(far.x - w.sx, far.y - w.sy);
+        const Vec2 ahead = to_far > 1e-9 * (lay.length + std::abs(w.sx)) ? far : p;
+        path.direction_at_source = halfedge_direction(g, w.halfedge, ahead.x - w.sx, ahead.y - w.sy);
       } else {
         const auto across = static_cast<std::uint32_t>(mesh_->twin(w.halfedge));
         path.direction_at_source = halfedge_direction(g, across, w.sx - p.x, w.sy - p.y);

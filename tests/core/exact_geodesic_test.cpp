@@ -16,6 +16,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <functional>
@@ -268,6 +269,10 @@ void check_path(const TriangleMesh& mesh, const GeodesicPath& path, const Surfac
                " but direction_at_target is in face " + std::to_string(dt.face));
   }
   if (path.points.size() < 2 || expected - offset == 0) return;
+  // A direction in a face whose corners coincide or are collinear has no 3D counterpart (the
+  // face has no plane): face_direction_3d is NaN there, and only the intrinsic unit vector,
+  // checked above, can be judged.
+  auto in_3d = [](const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
   auto compare = [&](const FaceDirection& d, const PathPoint& from, const PathPoint& to,
                      const char* name) {
     const Vec3 seg = to.position - from.position;
@@ -275,6 +280,7 @@ void check_path(const TriangleMesh& mesh, const GeodesicPath& path, const Surfac
     if (!planar && !(incident(mesh, from.point, d.face) && incident(mesh, to.point, d.face))) return;
     const Vec3 want = normalized(seg);
     const Vec3 got = face_direction_3d(mesh, d.face, d.x, d.y);
+    if (!in_3d(got)) return;
     if (!(norm(got - want) <= 1e-7 * conditioning)) {
       tally.fail(where + ": " + name + " (face " + std::to_string(d.face) + ", " + fmt(d.x) + ", " +
                  fmt(d.y) + ") is " + fmt(got) + " in 3D, but the end segment runs along " + fmt(want));
@@ -285,6 +291,7 @@ void check_path(const TriangleMesh& mesh, const GeodesicPath& path, const Surfac
     for (const auto& [d, want, name] :
          {std::tuple{ds, along, "direction_at_source"}, std::tuple{dt, -1.0 * along, "direction_at_target"}}) {
       const Vec3 got = face_direction_3d(mesh, d.face, d.x, d.y);
+      if (!in_3d(got)) continue;
       if (!(norm(got - want) <= 1e-7 * conditioning)) {
         tally.fail(where + ": " + name + " (face " + std::to_string(d.face) + ", " + fmt(d.x) + ", " + fmt(d.y) +
                    ") is " + fmt(got) + " in 3D, but the straight path runs along " + fmt(want));
@@ -1114,6 +1121,162 @@ TEST(ExactGeodesicRobustness, BoundarySourcesSymmetric) {
         } else {
           tally.check(d[i][j], fan_truth(cone, *tm, points[i])(points[j]), pair + " vs developed cone");
         }
+      }
+    }
+    EXPECT_TRUE(tally.result());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Random ugly meshes (test_meshes.h: ugly_rectangle, ugly_bumps): needles, slivers, caps,
+// zero-area faces and coincident vertices mixed at random. A fixed set of seeds runs here;
+// GEOPROX_STRESS_SEEDS=N runs N seeds instead (a soak run: bugs found that way get their seed
+// added to the fixed set).
+
+std::vector<std::uint64_t> stress_seeds(std::vector<std::uint64_t> fixed) {
+  if (const char* n = std::getenv("GEOPROX_STRESS_SEEDS")) {
+    fixed.clear();
+    for (std::uint64_t s = 1, count = std::strtoull(n, nullptr, 10); s <= count; ++s) fixed.push_back(s);
+  }
+  return fixed;
+}
+
+/// A few points of every kind on the mesh: vertices, edge points, points inside faces (any face,
+/// degenerate ones included) and on a face's side (a zero barycentric).
+std::vector<SurfacePoint> stress_points(const TriangleMesh& mesh, std::uint64_t seed) {
+  Rng rng(seed ^ 0x5EEDull);
+  const auto nv = static_cast<std::uint32_t>(mesh.num_vertices());
+  const auto ne = static_cast<std::uint32_t>(mesh.num_edges());
+  const auto nf = static_cast<std::uint32_t>(mesh.num_faces());
+  std::vector<SurfacePoint> points{SurfacePoint::vertex(rng.below(nv)), SurfacePoint::vertex(rng.below(nv)),
+                                   SurfacePoint::edge(rng.below(ne), rng.uniform()),
+                                   SurfacePoint::edge(rng.below(ne), rng.uniform()),
+                                   random_face_point(mesh, rng, 0), random_face_point(mesh, rng, 0)};
+  const double b = rng.uniform();
+  points.push_back(SurfacePoint::face(rng.below(nf), b, 1 - b, 0));
+  return points;
+}
+
+/// From each point: every vertex reached with a finite distance, at least the straight line
+/// (within 1e-9 of the diagonal), and on a flat mesh equal to it within `flat_tolerance` of the
+/// diagonal (negative: not flat); between the points, d(s,t) = d(t,s) within 1e-9 of the
+/// diagonal, and a path whose length is the distance, whose polyline is that long within
+/// `flat_tolerance` (or 1e-9) of the diagonal, and whose end directions are finite unit vectors.
+/// (The 3D directions are not compared: in caps and zero-area faces the 3D frame itself is
+/// ill-conditioned or undefined.)
+void check_stress(const TestMesh& tm, const std::vector<SurfacePoint>& points, const std::string& ctx,
+                  double flat_tolerance) {
+  const TriangleMesh& mesh = *tm.mesh;
+  const double scale = bbox_diagonal(mesh);
+  const double polyline_tolerance = std::max(flat_tolerance, 1e-9) * scale;
+  ExactGeodesicSolver solver(mesh, *tm.geometry);
+  Tally tally(ctx, scale, 1.0);
+  const std::size_t n = points.size();
+  std::vector<std::vector<double>> d(n, std::vector<double>(n, kInfinity));
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string from = " from " + points[i].to_string();
+    solver.solve(points[i]);
+    const Vec3 ps = points[i].position(mesh);
+    for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+      const double x = solver.distance(v), straight = dist(ps, mesh.position(v));
+      if (!std::isfinite(x) || x < straight - 1e-9 * scale ||
+          (flat_tolerance >= 0 && !(std::abs(x - straight) <= flat_tolerance * scale))) {
+        tally.fail("vertex " + std::to_string(v) + " at distance " + fmt(x) + from + " (straight line " +
+                   fmt(straight) + ")");
+      }
+    }
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::string where = ctx + " " + points[i].to_string() + " -> " + points[j].to_string();
+      d[i][j] = solver.distance(points[j]);
+      const double straight = dist(ps, points[j].position(mesh));
+      if (flat_tolerance >= 0 && !(std::abs(d[i][j] - straight) <= flat_tolerance * scale)) {
+        tally.fail(where + ": distance " + fmt(d[i][j]) + ", straight line " + fmt(straight));
+      }
+      const GeodesicPath path = solver.path_to(points[j]);
+      tally.check(path.length, d[i][j], where + ": path length");
+      double polyline = 0;
+      for (std::size_t k = 0; k + 1 < path.points.size(); ++k) {
+        polyline += dist(path.points[k + 1].position, path.points[k].position);
+      }
+      if (!(std::abs(polyline - d[i][j]) <= polyline_tolerance)) {
+        tally.fail(where + ": polyline of " + std::to_string(path.points.size()) + " points is " + fmt(polyline) +
+                   " long, distance " + fmt(d[i][j]));
+      }
+      for (const FaceDirection& e : {path.direction_at_source, path.direction_at_target}) {
+        if (!(e.face < mesh.num_faces()) || !(std::abs(std::hypot(e.x, e.y) - 1) <= 1e-12)) {
+          tally.fail(where + ": end direction (face " + std::to_string(e.face) + ", " + fmt(e.x) + ", " + fmt(e.y) +
+                     ") is not a unit vector of a face");
+        }
+      }
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      tally.check(d[i][j], d[j][i], "d(" + points[i].to_string() + ", " + points[j].to_string() + ") vs reverse");
+    }
+  }
+  EXPECT_TRUE(tally.result());
+}
+
+TEST(ExactGeodesicRobustness, RandomUglyRectanglesAreFlat) {
+  // The surface is the flat rectangle: every distance is the straight line. Within 1e-8 of the
+  // diagonal rather than the 1e-9 of the fixed ugly meshes above: needles of 1e-6 next to caps
+  // of 1e-7 compound their layouts' errors (up to 1.8e-9 seen). Before the fixes these seeds
+  // found (windows going on along the line of a zero-area face, corners not reached yet reached by a
+  // hair outside a window, directions along a zero-length side, the direction at a source on a
+  // line of zero-area faces), points of a zero-area fin or across a column of coincident
+  // vertices were off by up to 134%, vertices beside a needle were unreachable (seeds 46 and
+  // 93), and some end directions were NaN or not unit vectors.
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 19, 20, 46, 93})) {
+    const TestMesh tm = make_test_mesh(ugly_rectangle(seed));
+    check_stress(tm, stress_points(*tm.mesh, seed), "ugly rectangle " + std::to_string(seed), 1e-8);
+  }
+}
+
+TEST(ExactGeodesicRobustness, RandomUglyBumpsKeepTheInvariants) {
+  // No analytic truth: symmetry, never below the straight line, valid paths; a solve bounded by a
+  // radius agrees with the full solve inside it; the K-target stop settles the K nearest.
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12})) {
+    const TestMesh tm = make_test_mesh(ugly_bumps(seed));
+    const TriangleMesh& mesh = *tm.mesh;
+    const std::string ctx = "ugly bumps " + std::to_string(seed);
+    const std::vector<SurfacePoint> points = stress_points(mesh, seed);
+    check_stress(tm, points, ctx, -1);
+
+    ExactGeodesicSolver full(mesh, *tm.geometry), bounded(mesh, *tm.geometry);
+    const double scale = bbox_diagonal(mesh);
+    Tally tally(ctx + " bounded and K-target solves", scale, 1.0);
+    std::vector<SurfacePoint> vertices;
+    for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) vertices.push_back(SurfacePoint::vertex(v));
+    for (const SurfacePoint& s : points) {
+      full.solve(s);
+      std::vector<double> d = full.vertex_distances();
+      std::vector<double> sorted = d;
+      std::sort(sorted.begin(), sorted.end());
+      const double radius = sorted[sorted.size() / 2];
+      ExactGeodesicOptions within;
+      within.max_distance = radius;
+      bounded.solve(s, within);
+      for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+        const std::string where = "vertex " + std::to_string(v) + " from " + s.to_string();
+        // Within 1e-9 of the radius either answer is right.
+        if (std::abs(d[v] - radius) <= 1e-9 * scale) continue;
+        tally.check(bounded.distance(v), d[v] <= radius ? d[v] : kInfinity, where + " within " + fmt(radius));
+      }
+      const std::size_t k = 1 + sorted.size() / 5;
+      ExactGeodesicOptions nearest;
+      nearest.stop_after_targets = k;
+      bounded.solve(one(s), vertices, nearest);
+      const std::vector<double>& settled = bounded.settled_target_distances();
+      if (settled.size() != k) {
+        tally.fail(std::to_string(settled.size()) + " targets settled from " + s.to_string() + ", asked " +
+                   std::to_string(k));
+        continue;
+      }
+      for (std::size_t i = 0; i < k; ++i) {
+        const std::uint32_t v = bounded.settled_targets()[i];
+        tally.check(settled[i], d[v], "settled vertex " + std::to_string(v) + " from " + s.to_string());
+        tally.check(settled[i], sorted[i], "the " + std::to_string(i) + "th nearest from " + s.to_string());
       }
     }
     EXPECT_TRUE(tally.result());

@@ -253,6 +253,87 @@ inline MeshData cap_grid(int nx, int ny, double h, double offset,
   return d;
 }
 
+/// A random ugly triangulation of a flat rectangle (z = 0), for stress tests whose truth is the
+/// straight line: columns and rows of random widths, some 1e-3 to 1e-6 of the others (needles
+/// and slivers) and some exactly zero (coincident vertices: zero-length edges, zero-area faces);
+/// each cell split along either diagonal, or into four triangles around a point M inside the
+/// half (p00, p10, p11) at a random distance from the diagonal p00-p11 (a cap when tiny,
+/// zero-area when zero). The surface is the rectangle whatever the split; M computed in floating
+/// point may lie off the diagonal by a rounding, which flips a zero-area face by as much.
+inline MeshData ugly_rectangle(std::uint64_t seed) {
+  Rng rng(seed);
+  const int nx = 3 + static_cast<int>(rng.below(7)), ny = 3 + static_cast<int>(rng.below(7));
+  auto widths = [&](int n) {
+    std::vector<double> at{0};
+    for (int i = 0; i < n; ++i) {
+      const double r = rng.uniform();
+      double w = rng.uniform(0.05, 0.3);
+      if (r < 0.2) w = std::pow(10.0, -rng.uniform(3, 6));  // needle or sliver
+      else if (r < 0.27) w = 0;                          // coincident vertices
+      at.push_back(at.back() + w);
+    }
+    if (at.back() == 0) at.back() = 0.1;  // keep the rectangle two-dimensional
+    return at;
+  };
+  const std::vector<double> xs = widths(nx), ys = widths(ny);
+  MeshData d;
+  for (int j = 0; j <= ny; ++j) {
+    for (int i = 0; i <= nx; ++i) d.positions.push_back({xs[i], ys[j], 0});
+  }
+  auto v = [&](int i, int j) { return static_cast<std::uint32_t>(j * (nx + 1) + i); };
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const std::uint32_t p00 = v(i, j), p10 = v(i + 1, j), p11 = v(i + 1, j + 1), p01 = v(i, j + 1);
+      const double r = rng.uniform();
+      if (r < 0.35) {
+        d.faces.push_back({p00, p10, p11});
+        d.faces.push_back({p00, p11, p01});
+      } else if (r < 0.7) {
+        d.faces.push_back({p00, p10, p01});
+        d.faces.push_back({p10, p11, p01});
+      } else {
+        // M = w0 p00 + w1 p10 + w2 p11, w1 its weight off the diagonal.
+        const double u = rng.uniform(0.05, 0.95);
+        const double pick = rng.uniform();
+        const double e = pick < 0.3 ? 0.0 : (pick < 0.7 ? std::pow(10.0, -rng.uniform(4, 7)) : rng.uniform(0.01, 0.5));
+        const Vec3 a = d.positions[p00], b = d.positions[p10], c = d.positions[p11];
+        const double w0 = (1 - e) * (1 - u), w2 = (1 - e) * u;
+        const auto m = static_cast<std::uint32_t>(d.positions.size());
+        d.positions.push_back({w0 * a.x + e * b.x + w2 * c.x, w0 * a.y + e * b.y + w2 * c.y, 0});
+        d.faces.push_back({p00, p10, m});
+        d.faces.push_back({p10, p11, m});
+        d.faces.push_back({p00, m, p11});
+        d.faces.push_back({p00, p11, p01});
+      }
+    }
+  }
+  return d;
+}
+
+/// The same triangulation lifted to a bumpy height field: z = a few random Gaussian bumps and
+/// dents (saddles and cones among the vertices), for invariants that need no analytic truth.
+inline MeshData ugly_bumps(std::uint64_t seed) {
+  MeshData d = ugly_rectangle(seed);
+  Rng rng(seed ^ 0xB0B5ull);
+  double wx = 0, wy = 0;
+  for (const Vec3& p : d.positions) {
+    wx = std::max(wx, p.x);
+    wy = std::max(wy, p.y);
+  }
+  const int bumps = 2 + static_cast<int>(rng.below(5));
+  std::vector<std::array<double, 4>> b;  // centre x, centre y, height, width
+  for (int k = 0; k < bumps; ++k) {
+    b.push_back({rng.uniform(0, wx), rng.uniform(0, wy), rng.uniform(-0.3, 0.3) * std::max(wx, wy),
+                 rng.uniform(0.05, 0.4) * std::max(wx, wy)});
+  }
+  for (Vec3& p : d.positions) {
+    for (const auto& [cx, cy, h, w] : b) {
+      p.z += h * std::exp(-((p.x - cx) * (p.x - cx) + (p.y - cy) * (p.y - cy)) / (w * w));
+    }
+  }
+  return d;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Planar domains: rectangle minus open boxes
 
