@@ -88,9 +88,8 @@
 
 #include "bench/bench_support.h"
 #include "core/geodesic_query.h"
-#include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
+#include "core/loaded_graph.h"
 #include "protocol/json_rpc.h"
 
 namespace {
@@ -1071,11 +1070,9 @@ std::vector<double> ideal_server_latencies(const std::vector<double>& service_ms
 
 int run_in_process(const Options& o) {
   using namespace geoprox;
-  const TriangleMesh mesh = load_mesh(o.in_process_mesh);
-  const IntrinsicGeometry geometry(mesh);
-  const MappedGraphFile file = MappedGraphFile::open(o.in_process_graph);
-  file.verify_mesh(mesh, geometry);
-  const GeodesicQuery query(mesh, geometry, file.view());
+  const LoadedGraph loaded(o.in_process_mesh, o.in_process_graph);
+  const TriangleMesh& mesh = loaded.mesh;
+  const GeodesicQuery& query = *loaded.query;
   const MeshShape shape{mesh.num_vertices(), mesh.num_faces()};
   std::atomic<std::uint64_t> done{0};
   std::vector<std::vector<double>> latencies(static_cast<std::size_t>(o.threads));

@@ -23,7 +23,7 @@
 #include "core/geodesic_query.h"
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
+#include "core/loaded_graph.h"
 
 namespace {
 
@@ -95,16 +95,15 @@ int main(int argc, char** argv) {
     return 1;
   }
   try {
-    const TriangleMesh mesh = load_mesh(argv[1]);
-    const IntrinsicGeometry geometry(mesh);
-    const MappedGraphFile file = MappedGraphFile::open(argv[2]);
-    file.verify_mesh(mesh, geometry);
-    const GeodesicQuery query(mesh, geometry, file.view());
+    const LoadedGraph loaded(argv[1], argv[2]);
+    const TriangleMesh& mesh = loaded.mesh;
+    const IntrinsicGeometry& geometry = loaded.geometry;
+    const GeodesicQuery& query = *loaded.query;
     QueryScratch scratch = query.make_scratch();
     const double rho = query.link_radius();
     std::printf("mesh %s: %zu faces; graph %u samples, m_P %u, rho %.6g\n",
-                base_name(argv[1]).c_str(), mesh.num_faces(), file.view().num_samples,
-                file.view().neighbors, rho);
+                base_name(argv[1]).c_str(), mesh.num_faces(), loaded.file.view().num_samples,
+                loaded.file.view().neighbors, rho);
     ExactGeodesicSolver reference(mesh, geometry), plain(mesh, geometry);
     Rng rng{settings.seed};
 

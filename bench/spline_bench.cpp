@@ -29,7 +29,7 @@
 #include "core/geodesic_spline.h"
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
+#include "core/loaded_graph.h"
 
 namespace {
 
@@ -105,15 +105,14 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    const TriangleMesh mesh = load_mesh(argv[1]);
-    const IntrinsicGeometry geometry(mesh);
-    const MappedGraphFile file = MappedGraphFile::open(argv[2]);
-    file.verify_mesh(mesh, geometry);
-    const GeodesicQuery query(mesh, geometry, file.view());
+    const LoadedGraph loaded(argv[1], argv[2]);
+    const TriangleMesh& mesh = loaded.mesh;
+    const IntrinsicGeometry& geometry = loaded.geometry;
+    const GeodesicQuery& query = *loaded.query;
     const double diag = diagonal(mesh);
     std::printf("mesh %s: %zu faces, %zu vertices; graph %u samples, m_P %u, rho %.4g (%.3g diag)\n",
                 base_name(argv[1]).c_str(), mesh.num_faces(), mesh.num_vertices(),
-                file.view().num_samples, file.view().neighbors, query.link_radius(),
+                loaded.file.view().num_samples, loaded.file.view().neighbors, query.link_radius(),
                 query.link_radius() / diag);
 
     Rng rng{settings.seed};

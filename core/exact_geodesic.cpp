@@ -979,11 +979,9 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   // mesh), so a corner passed by a hair on both sides was left unreachable or reached the long
   // way round. Only a corner not reached yet: one reached already has a value from a ray that
   // hit, or will get one, and an early bent value would only queue a pseudo-source twice.
-  if (xc >= w.b0 - end_slack && xc <= w.b1 + end_slack) {
-    relax_vertex(crossing.opposite, through_window(w, xc, cx, cy), self, kViaNone,
-                 w.source_index);
-  } else if (xc >= w.b0 - end_slack - near_miss_ && xc <= w.b1 + end_slack + near_miss_ &&
-             vertex_distance_[crossing.opposite] == kInfinity) {
+  const bool seen = xc >= w.b0 - end_slack && xc <= w.b1 + end_slack;
+  if (seen || (xc >= w.b0 - end_slack - near_miss_ && xc <= w.b1 + end_slack + near_miss_ &&
+               vertex_distance_[crossing.opposite] == kInfinity)) {
     relax_vertex(crossing.opposite, through_window(w, xc, cx, cy), self, kViaNone,
                  w.source_index);
   }
@@ -1074,7 +1072,8 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
     // it makes. A window there from the same source, over at least this interval, already did
     // the work.
     // (`same` is against the mesh's scale too: in a cluster of coincident vertices the lengths
-    // are rounding, and so are the differences between the copies.)
+    // are rounding, and so are the differences between the copies. Windows dropped since count
+    // too: a copy of one would only be dropped again.)
     for (std::int32_t c = first_chunk(h); c >= 0; c = chunks_[c].next) {
       const SpanChunk& chunk = chunks_[c];
       for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {

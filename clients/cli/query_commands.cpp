@@ -27,8 +27,7 @@
 #include "core/geodesic_query.h"
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
-#include "core/riemannian_metric.h"
+#include "core/loaded_graph.h"
 
 namespace geoprox::cli {
 namespace {
@@ -70,23 +69,6 @@ std::string json_escape(const std::string& text) {
   }
   return out;
 }
-
-/// A mesh, its graph file (checked against it) and a query object over both.
-struct LoadedGraph {
-  TriangleMesh mesh;
-  IntrinsicGeometry geometry;
-  MappedGraphFile file;
-  std::unique_ptr<GeodesicQuery> query;
-
-  LoadedGraph(const std::string& mesh_path, const std::string& graph_path,
-              const std::string& metric_path, const GeodesicQueryOptions& options = {})
-      : mesh(load_mesh(mesh_path)),
-        geometry(load_geometry(mesh, metric_path)),
-        file(MappedGraphFile::open(graph_path)) {
-    file.verify_mesh(mesh, geometry);
-    query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view(), options);
-  }
-};
 
 /// Point syntax of `geoprox exact` plus `s:I` (sample I of the graph) and `p:X,Y,Z` (a 3D
 /// position snapped to the surface).

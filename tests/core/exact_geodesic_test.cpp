@@ -269,10 +269,6 @@ void check_path(const TriangleMesh& mesh, const GeodesicPath& path, const Surfac
                " but direction_at_target is in face " + std::to_string(dt.face));
   }
   if (path.points.size() < 2 || expected - offset == 0) return;
-  // A direction in a face whose corners coincide or are collinear has no 3D counterpart (the
-  // face has no plane): face_direction_3d is NaN there, and only the intrinsic unit vector,
-  // checked above, can be judged.
-  auto in_3d = [](const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
   auto compare = [&](const FaceDirection& d, const PathPoint& from, const PathPoint& to,
                      const char* name) {
     const Vec3 seg = to.position - from.position;
@@ -280,7 +276,6 @@ void check_path(const TriangleMesh& mesh, const GeodesicPath& path, const Surfac
     if (!planar && !(incident(mesh, from.point, d.face) && incident(mesh, to.point, d.face))) return;
     const Vec3 want = normalized(seg);
     const Vec3 got = face_direction_3d(mesh, d.face, d.x, d.y);
-    if (!in_3d(got)) return;
     if (!(norm(got - want) <= 1e-7 * conditioning)) {
       tally.fail(where + ": " + name + " (face " + std::to_string(d.face) + ", " + fmt(d.x) + ", " +
                  fmt(d.y) + ") is " + fmt(got) + " in 3D, but the end segment runs along " + fmt(want));
@@ -291,7 +286,6 @@ void check_path(const TriangleMesh& mesh, const GeodesicPath& path, const Surfac
     for (const auto& [d, want, name] :
          {std::tuple{ds, along, "direction_at_source"}, std::tuple{dt, -1.0 * along, "direction_at_target"}}) {
       const Vec3 got = face_direction_3d(mesh, d.face, d.x, d.y);
-      if (!in_3d(got)) continue;
       if (!(norm(got - want) <= 1e-7 * conditioning)) {
         tally.fail(where + ": " + name + " (face " + std::to_string(d.face) + ", " + fmt(d.x) + ", " + fmt(d.y) +
                    ") is " + fmt(got) + " in 3D, but the straight path runs along " + fmt(want));
