@@ -408,7 +408,8 @@ void ExactGeodesicSolver::seed_face_point(std::uint32_t source_index, double off
     const std::int32_t t = mesh_->twin(h);
     if (t < 0) continue;
     const HalfedgeLayout& lay = g.layout(h);
-    if (lay.length <= 0) continue;
+    // Not through a short side (see propagate): its ends were relaxed above.
+    if (lay.length <= 0 || (g.crossing(h).short_sides & HalfedgeCrossing::kShortSide)) continue;
     const Vec2 ph = face_to_halfedge_frame(g, face, i, p);
     // In the twin's frame (origin at h's target, x towards h's origin) the point lies below.
     create_window(static_cast<std::uint32_t>(t), 0, lay.length, {lay.length - ph.x, -ph.y},
@@ -518,6 +519,8 @@ void ExactGeodesicSolver::emit_into_corner(std::uint32_t v, std::uint32_t h, dou
   // Face of h = v -> a, with third corner b; the window goes on the far side of edge a -> b,
   // covering the rays from v at angles [angle_begin, angle_end] from v -> a towards v -> b.
   const IntrinsicGeometry& g = *geometry_;
+  // -1 on a boundary and across a short side (see propagate): a and b, v's neighbours, are
+  // reached already.
   const std::int32_t t = g.crossing(h).twin_next;  // across a -> b
   if (t < 0) return;
   // In the frame of a -> b: a = (0,0), b = (L,0), v = (cx, cy).
@@ -786,6 +789,10 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
       return;
     }
     source.y = 0;
+    if (source_at_pseudo_source_end(halfedge, source, sigma, parent, source_index)) {
+      ++stats_.windows_pruned;
+      return;
+    }
   }
   Window w{b0, b1, 0, source.x, source.y, sigma, halfedge, parent, root, source_index, 0};
   double key;
@@ -837,6 +844,43 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   if (targets_ && targets_->face_targets_ > 0) {
     update_targets_in_face(TriangleMesh::face_of(halfedge));
   }
+}
+
+// Out of line: rare, and inlined into every flattened caller of create_window it cost the
+// common path 1.1% of a full solve's instructions (armadillo, callgrind).
+[[gnu::noinline]] bool ExactGeodesicSolver::source_at_pseudo_source_end(
+    std::uint32_t halfedge, Vec2 source, double sigma, std::int32_t parent,
+    std::uint32_t source_index) {
+  // A source on the edge's line at one of its ends (to rounding: a cluster of coincident
+  // vertices) is that corner's own view of the faces around it. Kept, such windows went round
+  // the corner from face to face at an unchanging key, for ever: each one's source is again at
+  // the end of the next side. A corner that emits in every direction (degenerate, boundary or
+  // a source vertex) and is reached at least as near does all their work.
+  const HalfedgeCrossing& crossing = geometry_->crossing(halfedge);
+  const double L = crossing.layout.length;
+  const double coincident = 1e-12 * (geometry_->mean_edge_length() + L);
+  for (const auto& [v, x] : {std::pair{crossing.origin, 0.0}, std::pair{crossing.target, L}}) {
+    const double gap = std::abs(source.x - x);
+    if (!(gap <= coincident)) continue;
+    // The parent entered the face this side bounds, so v is one of its corners: reached through
+    // the parent as path_to will trace it (straight, or by the interval's nearer end).
+    if (parent >= 0) {
+      const Window& from = windows_[static_cast<std::size_t>(parent)];
+      const HalfedgeCrossing& face = geometry_->crossing(from.halfedge);
+      const HalfedgeLayout& lay = face.layout;
+      const Vec2 at = v == face.origin ? Vec2{0, 0} : v == face.target ? Vec2{lay.length, 0} : Vec2{lay.cx, lay.cy};
+      if (v == face.origin || v == face.target || v == face.opposite) {
+        relax_vertex(v, through_window(from, from.crossing_x(at.x, at.y), at.x, at.y), parent, kViaNone,
+                     source_index);
+      }
+    }
+    if (!(vertex_distance_[v] <= (sigma + gap) * (1 + kPruneSlack))) continue;
+    if (geometry_->is_degenerate_vertex(v) || mesh_->is_boundary_vertex(v) ||
+        vertex_via_vertex_[v] == kViaSourceVertex) {
+      return true;
+    }
+  }
+  return false;
 }
 
 void ExactGeodesicSolver::list_window(std::uint32_t halfedge, std::uint32_t index, double b0,
@@ -998,6 +1042,12 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   // "one angle one split" pruning is subsumed here by trimming windows against the other
   // windows on their edge when they are created.)
   const double left_end = std::min(w.b1, xc), right_begin = std::max(w.b0, xc);
+  // A short side (IntrinsicGeometryOptions::short_edge_ratio) lets no window through: the frame
+  // beyond it is unreliable, and its crossing record names no halfedge beyond it, so that the
+  // common path tests nothing more (testing the short-side flags here cost 1.3% of a full
+  // solve's instructions on armadillo, 2.6% with the call below placed after both children).
+  // Its ends, corners of a thin face and so pseudo-sources, are reached through this window
+  // instead.
   // Left child: edge a -> c, entered through twin(prev(h)).
   if (w.b0 < left_end) {
     const std::int32_t t = crossing.twin_prev;
@@ -1010,6 +1060,8 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
                     {sx * ex + sy * ey, cross2(ex, ey, sx, sy)}, w.sigma, self, w.root,
                     w.source_index);
+    } else if (crossing.short_sides & HalfedgeCrossing::kShortPrev) [[unlikely]] {
+      reach_short_side_ends(w, self, crossing, xc, crossing.origin);
     }
   }
   // Right child: edge c -> b, entered through twin(next(h)).
@@ -1024,8 +1076,22 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
                     {rx * ex + ry * ey, cross2(ex, ey, rx, ry)}, w.sigma, self, w.root,
                     w.source_index);
+    } else if (crossing.short_sides & HalfedgeCrossing::kShortNext) [[unlikely]] {
+      reach_short_side_ends(w, self, crossing, xc, crossing.target);
     }
   }
+}
+
+// Out of line: rare (short sides only).
+[[gnu::noinline]] void ExactGeodesicSolver::reach_short_side_ends(const Window& w, std::int32_t self,
+                                                                 const HalfedgeCrossing& crossing,
+                                                                 double xc, std::uint32_t end) {
+  // The side runs from the far corner c to `end` (a at x = 0 or b at x = L), both reached
+  // through the window (a real path: straight, or by the interval's nearer end).
+  const HalfedgeLayout& lay = crossing.layout;
+  relax_vertex(crossing.opposite, through_window(w, xc, lay.cx, lay.cy), self, kViaNone, w.source_index);
+  const double x = end == crossing.origin ? 0.0 : lay.length;
+  relax_vertex(end, through_window(w, x, x, 0), self, kViaNone, w.source_index);
 }
 
 // Out of line: rare (zero-area faces only), and flattened into propagate() it cost the common
@@ -1093,6 +1159,7 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
       relax_vertex(v, w.sigma + std::abs(x - sx), self, kViaNone, w.source_index);
     }
   }
+  // (None through a short side, whose record names no halfedge: see propagate.)
   child(crossing.twin_prev, 0, cx);  // side a -> c
   child(crossing.twin_next, cx, L);  // side c -> b
 }

@@ -335,6 +335,14 @@ class ExactGeodesicSolver {
   void propagate_along_line(const Window& w, std::int32_t self, const HalfedgeCrossing& crossing);
   void create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source, double sigma,
                      std::int32_t parent, std::int32_t root, std::uint32_t source_index);
+  // Relaxes the ends of a short side of the window's face that its rays cross (from the far
+  // corner to `end`) through the window, in place of a child there.
+  void reach_short_side_ends(const Window& w, std::int32_t self, const HalfedgeCrossing& crossing,
+                             double xc, std::uint32_t end);
+  // Whether a window with its source on the halfedge's line, at one of its ends, is that end
+  // vertex's own view and can go (relaxing the vertex through `parent` first).
+  bool source_at_pseudo_source_end(std::uint32_t halfedge, Vec2 source, double sigma,
+                                   std::int32_t parent, std::uint32_t source_index);
   void list_window(std::uint32_t halfedge, std::uint32_t index, double b0, double b1);
   /// Trims w against the distances of its face's corners; false if nothing is left. Sets key
   /// to window_key(w).

@@ -30,10 +30,16 @@ struct HalfedgeLayout {
 struct alignas(16) HalfedgeCrossing {
   HalfedgeLayout layout;
   std::uint32_t origin = 0, target = 0, opposite = 0;  ///< a, b, c
-  /// twin(prev(h)): the halfedge a window leaving through edge c-a enters; -1 on a boundary.
+  /// twin(prev(h)): the halfedge a window leaving through edge c-a enters; -1 on a boundary or
+  /// when c-a is short (no window goes through it).
   std::int32_t twin_prev = -1;
-  /// twin(next(h)): the halfedge a window leaving through edge b-c enters; -1 on a boundary.
+  /// twin(next(h)): the halfedge a window leaving through edge b-c enters; -1 on a boundary or
+  /// when b-c is short.
   std::int32_t twin_next = -1;
+  /// Which sides of the face are short edges (IntrinsicGeometryOptions::short_edge_ratio):
+  /// kShortSide (a-b, h's own), kShortPrev (c-a), kShortNext (b-c).
+  std::uint32_t short_sides = 0;
+  static constexpr std::uint32_t kShortSide = 1, kShortPrev = 2, kShortNext = 4;
 };
 static_assert(sizeof(HalfedgeCrossing) == 48);
 
@@ -48,6 +54,24 @@ struct IntrinsicGeometryOptions {
   /// A vertex whose angle sum exceeds 2*pi*(1 + this) is a saddle; flatter ones are not, since
   /// a shortest path passes straight through a flat vertex and windows on both sides cover it.
   double saddle_angle_tolerance = 1e-9;
+  /// Faces whose height over their longest side is below this fraction of that side count as
+  /// thin: their layouts, and the angles and windows derived from them, are good only to a
+  /// few digits (a height of 1e-9 next to sides of 0.1 is known to ~1e-10), and a straight path
+  /// grazing along them was lost or bent by up to 2x. Their corners become pseudo-sources
+  /// emitting in every direction, like those of zero-area faces: the paths through them are
+  /// real, so exactness is unaffected and solves on such meshes only create more windows. No
+  /// face of the real meshes in ../shared/meshes is below 1e-4 (lucy.obj: 47 below 1e-2).
+  double thin_face_ratio = 1e-5;
+  /// An edge shorter than this fraction of the longest side of a face it bounds is short: the
+  /// angles at its ends in that face, and so the frame of its halfedges, follow from the other
+  /// two sides' difference, known to an absolute 1e-16 of their length (a side of 1e-15 next
+  /// to sides of 0.18 was laid out with its far corner 0.0023 off: unfolded through it,
+  /// distances came out shorter than the straight line). In a face where it is short against
+  /// that face's own longest side, its layout is taken from the longest side's instead; exact
+  /// solvers stop windows at it and go on from its ends (whose faces' corners become
+  /// pseudo-sources), a detour of at most twice its length. At this ratio that detour and the
+  /// frames' error (1e-16 / ratio of the face) are both about 1e-8 of the face.
+  double short_edge_ratio = 1e-8;
 };
 
 class IntrinsicGeometry {
@@ -78,11 +102,14 @@ class IntrinsicGeometry {
   /// and searches may use straight-line distances as lower bounds. False under another metric.
   bool lengths_are_chords() const { return lengths_are_chords_; }
   /// Vertices through which a shortest path can bend: saddles (angle sum > 2 pi), boundary
-  /// vertices and corners of degenerate faces.
+  /// vertices and corners of degenerate or thin faces.
   bool is_pseudo_source(std::uint32_t v) const { return pseudo_source_[v] != 0; }
+  /// Zero-area (below Options::degenerate_area_ratio): no usable frame.
   bool is_degenerate_face(std::uint32_t f) const { return degenerate_face_[f] != 0; }
-  /// A corner of some degenerate face: angles there are unreliable, so solvers treat it as a
-  /// pseudo-source emitting in every direction.
+  /// Not zero-area, but thinner than Options::thin_face_ratio.
+  bool is_thin_face(std::uint32_t f) const { return thin_face_[f] != 0; }
+  /// A corner of some degenerate or thin face, or of a face with a short side: angles there are
+  /// unreliable, so solvers treat it as a pseudo-source emitting in every direction.
   bool is_degenerate_vertex(std::uint32_t v) const { return degenerate_vertex_[v] != 0; }
   /// Cache hints: what a solver reads about vertex v (angle sum, degenerate flag) or about the
   /// corner at h's origin when v emits windows as a pseudo-source.
@@ -108,6 +135,7 @@ class IntrinsicGeometry {
   std::vector<double> face_area_;
   std::vector<std::uint8_t> pseudo_source_;
   std::vector<std::uint8_t> degenerate_face_;
+  std::vector<std::uint8_t> thin_face_;
   std::vector<std::uint8_t> degenerate_vertex_;
   double mean_edge_length_ = 0;
   bool lengths_are_chords_ = false;

@@ -140,6 +140,7 @@ MeshReport compute_mesh_report(const TriangleMesh& mesh, const IntrinsicGeometry
     const double c = geometry.edge_length(mesh.edge_of(3 * f + 2));
     const double area = geometry.face_area(f);
     if (geometry.is_degenerate_face(f)) ++report.degenerate_faces;
+    if (geometry.is_thin_face(f)) ++report.thin_faces;
     if (is_obtuse(a, b, c)) ++report.obtuse_faces;
     report.total_area += area;
     const double quality = lo_quality(area, a, b, c);
@@ -220,6 +221,7 @@ std::string format_mesh_report(const MeshReport& report) {
   }
   line("genus", genus);
   line("degenerate faces", count_with_share(report.degenerate_faces, report.faces));
+  line("thin faces", count_with_share(report.thin_faces, report.faces));
   line("obtuse faces", count_with_share(report.obtuse_faces, report.faces));
   line("saddle vertices", count_with_share(report.saddle_vertices, report.vertices));
   line("bbox min", vec(report.bbox_min));

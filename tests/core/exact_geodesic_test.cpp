@@ -1151,20 +1151,36 @@ std::vector<SurfacePoint> stress_points(const TriangleMesh& mesh, std::uint64_t 
   return points;
 }
 
+/// Tolerances of check_stress.
+struct StressTolerance {
+  double flat = -1;        ///< |distance - straight line|, of the diagonal (negative: not flat)
+  double straight = 1e-9;  ///< how far below the straight line a distance may come, of the diagonal
+  double polyline = 1e-9;  ///< |3D polyline - distance|, of the diagonal
+  double symmetry = 1e-9;  ///< d(s,t) vs d(t,s), relative
+};
+
+/// Hairline features (test_meshes.h: ugly_rectangle with thinnest 9 or 15): distances,
+/// symmetry and the straight line hold to 1e-8 (one of 4,000 such meshes was asymmetric by
+/// 1.5e-9, beside a needle of 1e-9); the 3D polylines to 1e-6 (in 2,000 meshes, one beyond
+/// 1e-7): a path crossing the long side of a sliver at a grazing angle is placed along it only
+/// to the layout's error divided by that angle, and such misplaced points zigzag. The paths'
+/// intrinsic lengths still equal the distances.
+StressTolerance hairline(bool flat) { return {flat ? 1e-8 : -1.0, 1e-8, 1e-6, 1e-8}; }
+
 /// From each point: every vertex reached with a finite distance, at least the straight line
-/// (within 1e-9 of the diagonal), and on a flat mesh equal to it within `flat_tolerance` of the
-/// diagonal (negative: not flat); between the points, d(s,t) = d(t,s) within 1e-9 of the
-/// diagonal, and a path whose length is the distance, whose polyline is that long within
-/// `flat_tolerance` (or 1e-9) of the diagonal, and whose end directions are finite unit vectors.
-/// (The 3D directions are not compared: in caps and zero-area faces the 3D frame itself is
-/// ill-conditioned or undefined.)
+/// (within tolerance.straight), and on a flat mesh equal to it within tolerance.flat; between the
+/// points, d(s,t) = d(t,s), and a path whose length is the distance, whose polyline is that long
+/// and whose end directions are finite unit vectors. (The 3D directions are not compared: in
+/// caps and zero-area faces the 3D frame itself is ill-conditioned or undefined.)
 void check_stress(const TestMesh& tm, const std::vector<SurfacePoint>& points, const std::string& ctx,
-                  double flat_tolerance) {
+                  const StressTolerance& tolerance) {
   const TriangleMesh& mesh = *tm.mesh;
   const double scale = bbox_diagonal(mesh);
-  const double polyline_tolerance = std::max(flat_tolerance, 1e-9) * scale;
+  const double flat_tolerance = tolerance.flat;
+  const double straight_tolerance = std::max(tolerance.straight, flat_tolerance) * scale;
+  const double polyline_tolerance = std::max(tolerance.polyline, flat_tolerance) * scale;
   ExactGeodesicSolver solver(mesh, *tm.geometry);
-  Tally tally(ctx, scale, 1.0);
+  Tally tally(ctx, scale, 1.0, tolerance.symmetry);
   const std::size_t n = points.size();
   std::vector<std::vector<double>> d(n, std::vector<double>(n, kInfinity));
   for (std::size_t i = 0; i < n; ++i) {
@@ -1173,7 +1189,7 @@ void check_stress(const TestMesh& tm, const std::vector<SurfacePoint>& points, c
     const Vec3 ps = points[i].position(mesh);
     for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
       const double x = solver.distance(v), straight = dist(ps, mesh.position(v));
-      if (!std::isfinite(x) || x < straight - 1e-9 * scale ||
+      if (!std::isfinite(x) || x < straight - straight_tolerance ||
           (flat_tolerance >= 0 && !(std::abs(x - straight) <= flat_tolerance * scale))) {
         tally.fail("vertex " + std::to_string(v) + " at distance " + fmt(x) + from + " (straight line " +
                    fmt(straight) + ")");
@@ -1212,6 +1228,30 @@ void check_stress(const TestMesh& tm, const std::vector<SurfacePoint>& points, c
   EXPECT_TRUE(tally.result());
 }
 
+/// check_stress on ugly_rectangle(seed, thinnest), then from every vertex to every vertex (where
+/// unreachable vertices and infinite loops were found), within `tolerance.flat` of the diagonal.
+void check_flat_rectangle(std::uint64_t seed, double thinnest, const StressTolerance& tolerance) {
+  const TestMesh tm = make_test_mesh(ugly_rectangle(seed, thinnest));
+  const std::string ctx = "ugly rectangle " + std::to_string(seed) + " (thinnest 1e-" + fmt(thinnest) + ")";
+  check_stress(tm, stress_points(*tm.mesh, seed), ctx, tolerance);
+  const TriangleMesh& mesh = *tm.mesh;
+  const double scale = bbox_diagonal(mesh);
+  ExactGeodesicSolver solver(mesh, *tm.geometry);
+  Tally tally(ctx + " vertex to vertex", scale, 1.0);
+  for (std::uint32_t s = 0; s < mesh.num_vertices(); ++s) {
+    solver.solve(SurfacePoint::vertex(s));
+    for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+      const double straight = dist(mesh.position(s), mesh.position(v));
+      if (!(std::abs(solver.distance(v) - straight) <= tolerance.flat * scale)) {
+        tally.fail("v:" + std::to_string(s) + " -> v:" + std::to_string(v) + ": " + fmt(solver.distance(v)) +
+                   ", straight line " + fmt(straight));
+      }
+    }
+  }
+  if (tally.count() == 0) tally.check(0, 0, "nothing failed");
+  EXPECT_TRUE(tally.result());
+}
+
 TEST(ExactGeodesicRobustness, RandomUglyRectanglesAreFlat) {
   // The surface is the flat rectangle: every distance is the straight line. Within 1e-8 of the
   // diagonal rather than the 1e-9 of the fixed ugly meshes above: needles of 1e-6 next to caps
@@ -1223,77 +1263,86 @@ TEST(ExactGeodesicRobustness, RandomUglyRectanglesAreFlat) {
   // across a column of coincident vertices bent at a vertex of the line), some end directions
   // were NaN or not unit vectors, and with needles down to 1e-9 some vertices were unreachable.
   for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 19, 20, 57, 220})) {
-    const TestMesh tm = make_test_mesh(ugly_rectangle(seed));
-    const std::string ctx = "ugly rectangle " + std::to_string(seed);
-    check_stress(tm, stress_points(*tm.mesh, seed), ctx, 1e-8);
-    // And from every vertex to every vertex (where the unreachable ones were found).
-    const TriangleMesh& mesh = *tm.mesh;
-    const double scale = bbox_diagonal(mesh);
-    ExactGeodesicSolver solver(mesh, *tm.geometry);
-    Tally tally(ctx + " vertex to vertex", scale, 1.0);
-    for (std::uint32_t s = 0; s < mesh.num_vertices(); ++s) {
-      solver.solve(SurfacePoint::vertex(s));
-      for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
-        const double straight = dist(mesh.position(s), mesh.position(v));
-        if (!(std::abs(solver.distance(v) - straight) <= 1e-8 * scale)) {
-          tally.fail("v:" + std::to_string(s) + " -> v:" + std::to_string(v) + ": " + fmt(solver.distance(v)) +
-                     ", straight line " + fmt(straight));
-        }
-      }
-    }
-    if (tally.count() == 0) tally.check(0, 0, "nothing failed");
-    EXPECT_TRUE(tally.result());
+    check_flat_rectangle(seed, 6, {1e-8, 1e-8, 1e-8});
   }
 }
 
-TEST(ExactGeodesicRobustness, RandomUglyBumpsKeepTheInvariants) {
-  // No analytic truth: symmetry, never below the straight line, valid paths; a solve bounded by a
-  // radius agrees with the full solve inside it; the K-target stop settles the K nearest.
-  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12})) {
-    const TestMesh tm = make_test_mesh(ugly_bumps(seed));
-    const TriangleMesh& mesh = *tm.mesh;
-    const std::string ctx = "ugly bumps " + std::to_string(seed);
-    const std::vector<SurfacePoint> points = stress_points(mesh, seed);
-    check_stress(tm, points, ctx, -1);
-
-    ExactGeodesicSolver full(mesh, *tm.geometry), bounded(mesh, *tm.geometry);
-    const double scale = bbox_diagonal(mesh);
-    Tally tally(ctx + " bounded and K-target solves", scale, 1.0);
-    std::vector<SurfacePoint> vertices;
-    for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) vertices.push_back(SurfacePoint::vertex(v));
-    for (const SurfacePoint& s : points) {
-      full.solve(s);
-      std::vector<double> d = full.vertex_distances();
-      std::vector<double> sorted = d;
-      std::sort(sorted.begin(), sorted.end());
-      const double radius = sorted[sorted.size() / 2];
-      ExactGeodesicOptions within;
-      within.max_distance = radius;
-      bounded.solve(s, within);
-      for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
-        const std::string where = "vertex " + std::to_string(v) + " from " + s.to_string();
-        // Within 1e-9 of the radius either answer is right.
-        if (std::abs(d[v] - radius) <= 1e-9 * scale) continue;
-        tally.check(bounded.distance(v), d[v] <= radius ? d[v] : kInfinity, where + " within " + fmt(radius));
-      }
-      const std::size_t k = 1 + sorted.size() / 5;
-      ExactGeodesicOptions nearest;
-      nearest.stop_after_targets = k;
-      bounded.solve(one(s), vertices, nearest);
-      const std::vector<double>& settled = bounded.settled_target_distances();
-      if (settled.size() != k) {
-        tally.fail(std::to_string(settled.size()) + " targets settled from " + s.to_string() + ", asked " +
-                   std::to_string(k));
-        continue;
-      }
-      for (std::size_t i = 0; i < k; ++i) {
-        const std::uint32_t v = bounded.settled_targets()[i];
-        tally.check(settled[i], d[v], "settled vertex " + std::to_string(v) + " from " + s.to_string());
-        tally.check(settled[i], sorted[i], "the " + std::to_string(i) + "th nearest from " + s.to_string());
-      }
-    }
-    EXPECT_TRUE(tally.result());
+TEST(ExactGeodesicRobustness, RandomHairlineRectanglesAreFlat) {
+  // Needles and caps far thinner: down to 1e-9 and 1e-10 (a height of 1e-9 next to sides of 0.1
+  // is laid out to ~1e-10), and down to 1e-15 and 1e-16, an ulp or two of the coordinates.
+  // Before thin faces' corners became pseudo-sources (IntrinsicGeometryOptions::thin_face_ratio),
+  // 34 of 1000 seeds at 1e-9 had vertex distances off by more than 1e-6 or unreachable (seed 8:
+  // 21% too long, a path grazing along a band of slivers lost its window and went round; 43:
+  // 5.7e-4), and at 1e-15 most seeds failed (4: twice too long, 14: unreachable, 16 and 17:
+  // over 400 times too long); seed 331 at 1e-15 never finished: windows whose source sat at an
+  // end of their own edge (a cluster of coincident vertices) went round it at an unchanging
+  // key. (Tolerances: hairline.)
+  for (const std::uint64_t seed : stress_seeds({8, 32, 43, 93, 97, 295})) check_flat_rectangle(seed, 9, hairline(true));
+  for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581})) {
+    check_flat_rectangle(seed, 15, hairline(true));
   }
+}
+
+/// No analytic truth: symmetry, never below the straight line, valid paths; a solve bounded by a
+/// radius agrees with the full solve inside it; the K-target stop settles the K nearest.
+void check_bumps(std::uint64_t seed, double thinnest, const StressTolerance& tolerance) {
+  const TestMesh tm = make_test_mesh(ugly_bumps(seed, thinnest));
+  const TriangleMesh& mesh = *tm.mesh;
+  const std::string ctx = "ugly bumps " + std::to_string(seed) + " (thinnest 1e-" + fmt(thinnest) + ")";
+  const std::vector<SurfacePoint> points = stress_points(mesh, seed);
+  check_stress(tm, points, ctx, tolerance);
+
+  ExactGeodesicSolver full(mesh, *tm.geometry), bounded(mesh, *tm.geometry);
+  const double scale = bbox_diagonal(mesh);
+  Tally tally(ctx + " bounded and K-target solves", scale, 1.0);
+  std::vector<SurfacePoint> vertices;
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) vertices.push_back(SurfacePoint::vertex(v));
+  for (const SurfacePoint& s : points) {
+    full.solve(s);
+    std::vector<double> d = full.vertex_distances();
+    std::vector<double> sorted = d;
+    std::sort(sorted.begin(), sorted.end());
+    const double radius = sorted[sorted.size() / 2];
+    ExactGeodesicOptions within;
+    within.max_distance = radius;
+    bounded.solve(s, within);
+    for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+      const std::string where = "vertex " + std::to_string(v) + " from " + s.to_string();
+      // Within 1e-9 of the radius either answer is right.
+      if (std::abs(d[v] - radius) <= 1e-9 * scale) continue;
+      tally.check(bounded.distance(v), d[v] <= radius ? d[v] : kInfinity, where + " within " + fmt(radius));
+    }
+    const std::size_t k = 1 + sorted.size() / 5;
+    ExactGeodesicOptions nearest;
+    nearest.stop_after_targets = k;
+    bounded.solve(one(s), vertices, nearest);
+    const std::vector<double>& settled = bounded.settled_target_distances();
+    if (settled.size() != k) {
+      tally.fail(std::to_string(settled.size()) + " targets settled from " + s.to_string() + ", asked " +
+                 std::to_string(k));
+      continue;
+    }
+    for (std::size_t i = 0; i < k; ++i) {
+      const std::uint32_t v = bounded.settled_targets()[i];
+      tally.check(settled[i], d[v], "settled vertex " + std::to_string(v) + " from " + s.to_string());
+      tally.check(settled[i], sorted[i], "the " + std::to_string(i) + "th nearest from " + s.to_string());
+    }
+  }
+  EXPECT_TRUE(tally.result());
+}
+
+TEST(ExactGeodesicRobustness, RandomUglyBumpsKeepTheInvariants) {
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12})) check_bumps(seed, 6, {});
+}
+
+TEST(ExactGeodesicRobustness, RandomHairlineBumpsKeepTheInvariants) {
+  // At 1e-15 (an ulp or two of the coordinates), before short sides got their layouts from the
+  // face's longest side and let no window through, distances came out up to 3.5e-5 below the
+  // straight line (bumps 5, unfolded through a side of 1.5e-15 laid out 0.0023 off) and, from
+  // points on edges and in faces beside such sides, polylines 1.4% longer than the distance
+  // (bumps 18).
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 295})) check_bumps(seed, 9, hairline(false));
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 15, 18, 20})) check_bumps(seed, 15, hairline(false));
 }
 
 // ---------------------------------------------------------------------------------------------

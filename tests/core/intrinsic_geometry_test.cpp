@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -27,8 +28,11 @@ void expect_records_match_mesh(const TriangleMesh& mesh, const IntrinsicGeometry
     ASSERT_EQ(c.origin, mesh.origin(h)) << "halfedge " << h;
     ASSERT_EQ(c.target, mesh.target(h)) << "halfedge " << h;
     ASSERT_EQ(c.opposite, mesh.opposite_vertex(h)) << "halfedge " << h;
-    ASSERT_EQ(c.twin_prev, mesh.twin(TriangleMesh::prev(h))) << "halfedge " << h;
-    ASSERT_EQ(c.twin_next, mesh.twin(TriangleMesh::next(h))) << "halfedge " << h;
+    // (No halfedge beyond a short side: no window goes through it.)
+    ASSERT_EQ(c.twin_prev, (c.short_sides & HalfedgeCrossing::kShortPrev) ? -1 : mesh.twin(TriangleMesh::prev(h)))
+        << "halfedge " << h;
+    ASSERT_EQ(c.twin_next, (c.short_sides & HalfedgeCrossing::kShortNext) ? -1 : mesh.twin(TriangleMesh::next(h)))
+        << "halfedge " << h;
     ASSERT_EQ(&c.layout, &geometry.layout(h)) << "halfedge " << h;
     ASSERT_EQ(c.layout.length, geometry.edge_length(mesh.edge_of(h))) << "halfedge " << h;
   }
@@ -92,6 +96,78 @@ TEST(IntrinsicGeometry, CrossingRecordsFollowExplicitEdgeLengths) {
                 1e-12 * spot.geometry->layout(h).length)
         << h;
   }
+}
+
+TEST(IntrinsicGeometry, LaysOutShortSidesFromTheLongestSide) {
+  // Two needles sharing a side of 1.5e-15 (coordinates an ulp apart, from a bumpy test mesh),
+  // their other sides 0.16-0.18. From the lengths alone, the layout on the short side put the
+  // far corner where the long sides' difference (noise) said: 0.0023 along it, 1.8e-4 (relative)
+  // off the two long sides' lengths, and a window unfolded through it came out shorter than the
+  // straight line. Taken from the longest side's layout instead, every halfedge lays out the
+  // same triangle; the short side is flagged, its records name no halfedge beyond it, and the
+  // faces' corners emit in every direction.
+  const TriangleMesh mesh({{0, 0, -0.077359966321925863},
+                           {1.4901765115491748e-15, 0, -0.077359966321925974},
+                           {1.4901765115491748e-15, 0.16526273602187291, -0.14473497004438463},
+                           {0.0003, -0.1, 0.05}},
+                          {Triangle{0, 1, 2}, Triangle{1, 0, 3}});
+  const IntrinsicGeometry geometry(mesh);
+  expect_records_match_mesh(mesh, geometry);
+  for (std::uint32_t h = 0; h < mesh.num_halfedges(); ++h) {
+    const HalfedgeLayout& lay = geometry.layout(h);
+    const double ca = geometry.edge_length(mesh.edge_of(TriangleMesh::prev(h)));
+    const double bc = geometry.edge_length(mesh.edge_of(TriangleMesh::next(h)));
+    const double scale = std::max({lay.length, ca, bc});
+    EXPECT_NEAR(lay.cx * lay.cx + lay.cy * lay.cy, ca * ca, 1e-14 * scale * scale) << h;
+    EXPECT_NEAR((lay.cx - lay.length) * (lay.cx - lay.length) + lay.cy * lay.cy, bc * bc, 1e-14 * scale * scale) << h;
+    const bool short_side = mesh.edge_of(h) == mesh.edge_of(0);
+    EXPECT_EQ((geometry.crossing(h).short_sides & HalfedgeCrossing::kShortSide) != 0, short_side) << h;
+  }
+  // The short side (halfedges 0 and 3) is prev of halfedges 1 and 4 and next of 2 and 5 (faces
+  // (0 1 2) and (1 0 3)): their records name no halfedge beyond it, though the mesh has one.
+  ASSERT_EQ(mesh.twin(0), 3);
+  EXPECT_EQ(geometry.crossing(1).twin_prev, -1);
+  EXPECT_EQ(geometry.crossing(2).twin_next, -1);
+  EXPECT_EQ(geometry.crossing(4).twin_prev, -1);
+  EXPECT_EQ(geometry.crossing(5).twin_next, -1);
+  // Both have areas below 1e-14 of the mean edge squared: zero-area, not merely thin.
+  for (std::uint32_t f = 0; f < 2; ++f) EXPECT_TRUE(geometry.is_degenerate_face(f)) << f;
+  for (std::uint32_t v = 0; v < 4; ++v) {
+    EXPECT_TRUE(geometry.is_degenerate_vertex(v)) << v;
+    EXPECT_TRUE(geometry.is_pseudo_source(v)) << v;
+  }
+}
+
+TEST(IntrinsicGeometry, CornersOfAFaceWithAShortSideEmitEverywhereWhateverTheOtherRatios) {
+  // A small well-shaped face beside a large one: its sides are short against the large face's
+  // longest side (1e-9 of it), yet it is neither zero-area nor thin, and with the other ratios
+  // turned off nothing else flags its corners. They must emit in every direction all the same,
+  // since the records hide the halfedges beyond the short side (the fan walk of a saddle
+  // relies on them).
+  IntrinsicGeometryOptions options;
+  options.thin_face_ratio = 0;
+  options.degenerate_area_ratio = 0;
+  const TriangleMesh mesh({{0, 0, 0}, {1e-9, 0, 0}, {0.5e-9, 0.8e-9, 0}, {0.5, -1, 0}},
+                          {Triangle{0, 1, 2}, Triangle{1, 0, 3}});
+  const IntrinsicGeometry geometry(mesh, options);
+  EXPECT_FALSE(geometry.is_thin_face(0));
+  EXPECT_FALSE(geometry.is_degenerate_face(0));
+  EXPECT_NE(geometry.crossing(0).short_sides & HalfedgeCrossing::kShortSide, 0u);
+  EXPECT_EQ(geometry.crossing(4).twin_prev, -1);
+  for (std::uint32_t v = 0; v < 3; ++v) EXPECT_TRUE(geometry.is_degenerate_vertex(v)) << v;
+}
+
+TEST(IntrinsicGeometry, MarksThinFacesButNotMerelyPoorOnes) {
+  // Height over the longest side below 1e-5 of it: thin. Lucy's worst faces are near 1e-3.
+  const TriangleMesh mesh({{0, 0, 0}, {1, 0, 0}, {0.5, 2e-6, 0}, {0.5, 1e-3, 0}},
+                          {Triangle{0, 1, 2}, Triangle{1, 0, 3}});
+  const IntrinsicGeometry geometry(mesh);
+  EXPECT_TRUE(geometry.is_thin_face(0));
+  EXPECT_FALSE(geometry.is_thin_face(1));
+  EXPECT_FALSE(geometry.is_degenerate_face(0));
+  EXPECT_TRUE(geometry.is_degenerate_vertex(2));
+  EXPECT_FALSE(geometry.is_degenerate_vertex(3));
+  EXPECT_EQ(geometry.crossing(0).short_sides, 0u);  // no side is short: only thin
 }
 
 TEST(IntrinsicGeometry, KnowsWhetherItsLengthsAreTheChords) {

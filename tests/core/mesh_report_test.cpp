@@ -62,6 +62,7 @@ TEST(MeshReport, OctahedronIsARegularSphere) {
   EXPECT_EQ(r.components, 1u);
   EXPECT_EQ(r.genus_per_component, std::vector<long>{0});
   EXPECT_EQ(r.degenerate_faces, 0u);
+  EXPECT_EQ(r.thin_faces, 0u);
   EXPECT_EQ(r.obtuse_faces, 0u);
   EXPECT_EQ(r.saddle_vertices, 0u);  // angle sum 4 x 60 degrees
   EXPECT_EQ(r.bbox_min.x, -1.0);
@@ -142,6 +143,7 @@ TEST(MeshReport, NeedleAndCap) {
   const MeshReport r = report_of_file(test_file("needle.obj"));
   EXPECT_EQ(r.faces, 4u);
   EXPECT_EQ(r.degenerate_faces, 1u);  // the cap (zero area); the needle has area 1e-7
+  EXPECT_EQ(r.thin_faces, 1u);        // the needle: height 1.4e-7 over its longest side of 1.41
   EXPECT_EQ(r.obtuse_faces, 2u);      // cap (180 degrees) and needle; faces 0, 1 are right
   EXPECT_EQ(r.saddle_vertices, 0u);   // vertex 2 is interior and flat: 90 + 90 + 180 degrees
   EXPECT_EQ(r.boundary_loops, 1u);

@@ -254,13 +254,15 @@ inline MeshData cap_grid(int nx, int ny, double h, double offset,
 }
 
 /// A random ugly triangulation of a flat rectangle (z = 0), for stress tests whose truth is the
-/// straight line: columns and rows of random widths, some 1e-3 to 1e-6 of the others (needles
-/// and slivers) and some exactly zero (coincident vertices: zero-length edges, zero-area faces);
-/// each cell split along either diagonal, or into four triangles around a point M inside the
-/// half (p00, p10, p11) at a random distance from the diagonal p00-p11 (a cap when tiny,
-/// zero-area when zero). The surface is the rectangle whatever the split; M computed in floating
-/// point may lie off the diagonal by a rounding, which flips a zero-area face by as much.
-inline MeshData ugly_rectangle(std::uint64_t seed) {
+/// straight line: columns and rows of random widths, some 1e-3 to 10^-thinnest of the others
+/// (needles and slivers) and some exactly zero (coincident vertices: zero-length edges,
+/// zero-area faces); each cell split along either diagonal, or into four triangles around a
+/// point M inside the half (p00, p10, p11) at a random distance from the diagonal p00-p11 (1e-4
+/// to 10^-(thinnest+1) of the cell: a cap; or zero: zero-area). The surface is the rectangle
+/// whatever the split; M computed in floating point may lie off the diagonal by a rounding,
+/// which flips a zero-area face by as much. With thinnest 15 the thinnest columns are an ulp
+/// or two of their coordinates wide.
+inline MeshData ugly_rectangle(std::uint64_t seed, double thinnest = 6) {
   Rng rng(seed);
   const int nx = 3 + static_cast<int>(rng.below(7)), ny = 3 + static_cast<int>(rng.below(7));
   auto widths = [&](int n) {
@@ -268,7 +270,7 @@ inline MeshData ugly_rectangle(std::uint64_t seed) {
     for (int i = 0; i < n; ++i) {
       const double r = rng.uniform();
       double w = rng.uniform(0.05, 0.3);
-      if (r < 0.2) w = std::pow(10.0, -rng.uniform(3, 6));  // needle or sliver
+      if (r < 0.2) w = std::pow(10.0, -rng.uniform(3, thinnest));  // needle or sliver
       else if (r < 0.27) w = 0;                          // coincident vertices
       at.push_back(at.back() + w);
     }
@@ -295,7 +297,9 @@ inline MeshData ugly_rectangle(std::uint64_t seed) {
         // M = w0 p00 + w1 p10 + w2 p11, w1 its weight off the diagonal.
         const double u = rng.uniform(0.05, 0.95);
         const double pick = rng.uniform();
-        const double e = pick < 0.3 ? 0.0 : (pick < 0.7 ? std::pow(10.0, -rng.uniform(4, 7)) : rng.uniform(0.01, 0.5));
+        const double e = pick < 0.3 ? 0.0
+                         : pick < 0.7 ? std::pow(10.0, -rng.uniform(4, thinnest + 1))
+                                      : rng.uniform(0.01, 0.5);
         const Vec3 a = d.positions[p00], b = d.positions[p10], c = d.positions[p11];
         const double w0 = (1 - e) * (1 - u), w2 = (1 - e) * u;
         const auto m = static_cast<std::uint32_t>(d.positions.size());
@@ -312,8 +316,8 @@ inline MeshData ugly_rectangle(std::uint64_t seed) {
 
 /// The same triangulation lifted to a bumpy height field: z = a few random Gaussian bumps and
 /// dents (saddles and cones among the vertices), for invariants that need no analytic truth.
-inline MeshData ugly_bumps(std::uint64_t seed) {
-  MeshData d = ugly_rectangle(seed);
+inline MeshData ugly_bumps(std::uint64_t seed, double thinnest = 6) {
+  MeshData d = ugly_rectangle(seed, thinnest);
   Rng rng(seed ^ 0xB0B5ull);
   double wx = 0, wy = 0;
   for (const Vec3& p : d.positions) {
