@@ -789,7 +789,7 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
       return;
     }
     source.y = 0;
-    if (source_at_pseudo_source_end(halfedge, source, sigma, parent, source_index)) {
+    if (source_at_pseudo_source_end(halfedge, source, sigma, parent)) {
       ++stats_.windows_pruned;
       return;
     }
@@ -848,9 +848,9 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
 
 // Out of line: rare, and inlined into every flattened caller of create_window it cost the
 // common path 1.1% of a full solve's instructions (armadillo, callgrind).
-[[gnu::noinline]] bool ExactGeodesicSolver::source_at_pseudo_source_end(
-    std::uint32_t halfedge, Vec2 source, double sigma, std::int32_t parent,
-    std::uint32_t source_index) {
+[[gnu::noinline]] bool ExactGeodesicSolver::source_at_pseudo_source_end(std::uint32_t halfedge,
+                                                                        Vec2 source, double sigma,
+                                                                        std::int32_t parent) {
   // A source on the edge's line at one of its ends (to rounding: a cluster of coincident
   // vertices) is that corner's own view of the faces around it. Kept, such windows went round
   // the corner from face to face at an unchanging key, for ever: each one's source is again at
@@ -862,18 +862,8 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   for (const auto& [v, x] : {std::pair{crossing.origin, 0.0}, std::pair{crossing.target, L}}) {
     const double gap = std::abs(source.x - x);
     if (!(gap <= coincident)) continue;
-    // The parent entered the face this side bounds, so v is one of its corners: reached through
-    // the parent as path_to will trace it (straight, or by the interval's nearer end).
-    if (parent >= 0) {
-      const Window& from = windows_[static_cast<std::size_t>(parent)];
-      const HalfedgeCrossing& face = geometry_->crossing(from.halfedge);
-      const HalfedgeLayout& lay = face.layout;
-      const Vec2 at = v == face.origin ? Vec2{0, 0} : v == face.target ? Vec2{lay.length, 0} : Vec2{lay.cx, lay.cy};
-      if (v == face.origin || v == face.target || v == face.opposite) {
-        relax_vertex(v, through_window(from, from.crossing_x(at.x, at.y), at.x, at.y), parent, kViaNone,
-                     source_index);
-      }
-    }
+    // The parent entered the face this side bounds, so v is one of its corners.
+    if (parent >= 0) relax_corner_through(windows_[static_cast<std::size_t>(parent)], parent, v);
     if (!(vertex_distance_[v] <= (sigma + gap) * (1 + kPruneSlack))) continue;
     if (geometry_->is_degenerate_vertex(v) || mesh_->is_boundary_vertex(v) ||
         vertex_via_vertex_[v] == kViaSourceVertex) {
@@ -1061,7 +1051,7 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
                     {sx * ex + sy * ey, cross2(ex, ey, sx, sy)}, w.sigma, self, w.root,
                     w.source_index);
     } else if (crossing.short_sides & HalfedgeCrossing::kShortPrev) [[unlikely]] {
-      reach_short_side_ends(w, self, crossing, xc, crossing.origin);
+      reach_short_side_ends(w, self, crossing.origin);
     }
   }
   // Right child: edge c -> b, entered through twin(next(h)).
@@ -1077,21 +1067,34 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
                     {rx * ex + ry * ey, cross2(ex, ey, rx, ry)}, w.sigma, self, w.root,
                     w.source_index);
     } else if (crossing.short_sides & HalfedgeCrossing::kShortNext) [[unlikely]] {
-      reach_short_side_ends(w, self, crossing, xc, crossing.target);
+      reach_short_side_ends(w, self, crossing.target);
     }
   }
 }
 
 // Out of line: rare (short sides only).
 [[gnu::noinline]] void ExactGeodesicSolver::reach_short_side_ends(const Window& w, std::int32_t self,
-                                                                 const HalfedgeCrossing& crossing,
-                                                                 double xc, std::uint32_t end) {
-  // The side runs from the far corner c to `end` (a at x = 0 or b at x = L), both reached
-  // through the window (a real path: straight, or by the interval's nearer end).
+                                                                 std::uint32_t end) {
+  // The side runs from the far corner c to `end` (a or b).
+  relax_corner_through(w, self, geometry_->crossing(w.halfedge).opposite);
+  relax_corner_through(w, self, end);
+}
+
+void ExactGeodesicSolver::relax_corner_through(const Window& w, std::int32_t index, std::uint32_t v) {
+  // As path_to traces it: straight through the interval, or by its nearer end. A corner on the
+  // edge is its own crossing point.
+  const HalfedgeCrossing& crossing = geometry_->crossing(w.halfedge);
   const HalfedgeLayout& lay = crossing.layout;
-  relax_vertex(crossing.opposite, through_window(w, xc, lay.cx, lay.cy), self, kViaNone, w.source_index);
-  const double x = end == crossing.origin ? 0.0 : lay.length;
-  relax_vertex(end, through_window(w, x, x, 0), self, kViaNone, w.source_index);
+  double distance;
+  if (v == crossing.opposite) {
+    distance = through_window(w, w.crossing_x(lay.cx, lay.cy), lay.cx, lay.cy);
+  } else if (v == crossing.origin || v == crossing.target) {
+    const double x = v == crossing.origin ? 0.0 : lay.length;
+    distance = through_window(w, x, x, 0);
+  } else {
+    return;  // not a corner of w's face
+  }
+  relax_vertex(v, distance, index, kViaNone, w.source_index);
 }
 
 // Out of line: rare (zero-area faces only), and flattened into propagate() it cost the common

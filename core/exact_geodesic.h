@@ -337,12 +337,13 @@ class ExactGeodesicSolver {
                      std::int32_t parent, std::int32_t root, std::uint32_t source_index);
   // Relaxes the ends of a short side of the window's face that its rays cross (from the far
   // corner to `end`) through the window, in place of a child there.
-  void reach_short_side_ends(const Window& w, std::int32_t self, const HalfedgeCrossing& crossing,
-                             double xc, std::uint32_t end);
+  void reach_short_side_ends(const Window& w, std::int32_t self, std::uint32_t end);
+  // Relaxes corner v of the face window w (index `index`) enters through w; nothing if v is
+  // not one of its corners.
+  void relax_corner_through(const Window& w, std::int32_t index, std::uint32_t v);
   // Whether a window with its source on the halfedge's line, at one of its ends, is that end
   // vertex's own view and can go (relaxing the vertex through `parent` first).
-  bool source_at_pseudo_source_end(std::uint32_t halfedge, Vec2 source, double sigma,
-                                   std::int32_t parent, std::uint32_t source_index);
+  bool source_at_pseudo_source_end(std::uint32_t halfedge, Vec2 source, double sigma, std::int32_t parent);
   void list_window(std::uint32_t halfedge, std::uint32_t index, double b0, double b1);
   /// Trims w against the distances of its face's corners; false if nothing is left. Sets key
   /// to window_key(w).

@@ -82,6 +82,7 @@ void IntrinsicGeometry::build(const Options& options) {
 
   degenerate_face_.assign(mesh.num_faces(), 0);
   thin_face_.assign(mesh.num_faces(), 0);
+  std::vector<double> longest_side(mesh.num_faces(), 0);
   for (std::uint32_t h = 0; h < nh; ++h) {
     // h = a->b; lengths of ab, bc, ca.
     const double ab = edge_length_[mesh.edge_of(h)];
@@ -119,7 +120,7 @@ void IntrinsicGeometry::build(const Options& options) {
       face_area_[h / 3] = area;
       degenerate_face_[h / 3] = area <= degenerate_area ? 1 : 0;
       // Height over the longest side, relative to it.
-      const double longest = std::max({ab, bc, ca});
+      const double longest = longest_side[h / 3] = std::max({ab, bc, ca});
       thin_face_[h / 3] = !degenerate_face_[h / 3] && 2 * area < options.thin_face_ratio * longest * longest;
     }
   }
@@ -135,7 +136,7 @@ void IntrinsicGeometry::build(const Options& options) {
     double side[3];
     for (int i = 0; i < 3; ++i) side[i] = edge_length_[mesh.edge_of(3 * f + static_cast<std::uint32_t>(i))];
     const int k = static_cast<int>(std::max_element(side, side + 3) - side);
-    auto is_short_here = [&](int j) { return side[j] > 0 && side[j] < options.short_edge_ratio * side[k]; };
+    auto is_short_here = [&](int j) { return side[j] > 0 && side[j] < options.short_edge_ratio * longest_side[f]; };
     if (!is_short_here((k + 1) % 3) && !is_short_here((k + 2) % 3)) continue;
     const HalfedgeLayout& base = crossing_[3 * f + static_cast<std::uint32_t>(k)].layout;
     Vec2 corner[3];
@@ -161,17 +162,13 @@ void IntrinsicGeometry::build(const Options& options) {
   // Short edges: against the longest side of either face they bound.
   std::vector<double> longest_beside(mesh.num_edges(), 0);
   for (std::uint32_t h = 0; h < nh; ++h) {
-    const std::uint32_t f = h / 3;
-    const double longest = std::max({edge_length_[mesh.edge_of(3 * f)], edge_length_[mesh.edge_of(3 * f + 1)],
-                                     edge_length_[mesh.edge_of(3 * f + 2)]});
     double& beside = longest_beside[mesh.edge_of(h)];
-    beside = std::max(beside, longest);
+    beside = std::max(beside, longest_side[h / 3]);
   }
   auto is_short = [&](std::uint32_t h) {
     const std::uint32_t e = mesh.edge_of(h);
     return edge_length_[e] < options.short_edge_ratio * longest_beside[e];
   };
-  std::vector<std::uint8_t> has_short_side(mesh.num_faces(), 0);
   for (std::uint32_t h = 0; h < nh; ++h) {
     HalfedgeCrossing& crossing = crossing_[h];
     crossing.short_sides = (is_short(h) ? HalfedgeCrossing::kShortSide : 0) |
@@ -180,7 +177,6 @@ void IntrinsicGeometry::build(const Options& options) {
     // No window goes through a short side: the record names no halfedge beyond it.
     if (crossing.short_sides & HalfedgeCrossing::kShortPrev) crossing.twin_prev = -1;
     if (crossing.short_sides & HalfedgeCrossing::kShortNext) crossing.twin_next = -1;
-    if (crossing.short_sides) has_short_side[h / 3] = 1;
   }
 
   pseudo_source_.assign(mesh.num_vertices(), 0);
@@ -192,8 +188,9 @@ void IntrinsicGeometry::build(const Options& options) {
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
     // A face with a short side (against either face it bounds: a small face beside a large one
     // can be neither zero-area nor thin) has its corners emit in every direction all the same:
-    // its records hide the halfedges beyond that side.
-    if (degenerate_face_[f] || thin_face_[f] || has_short_side[f]) {
+    // its records hide the halfedges beyond that side. (Each record flags all three sides.)
+    const bool has_short_side = crossing_[3 * f].short_sides != 0;
+    if (degenerate_face_[f] || thin_face_[f] || has_short_side) {
       for (std::uint32_t v : mesh.face(f)) pseudo_source_[v] = degenerate_vertex_[v] = 1;
     }
   }
