@@ -89,7 +89,9 @@ struct ExactGeodesicOptions {
   /// units); points farther away are reported unreachable. Infinity: the whole surface.
   double max_distance = kInfinity;
   /// With targets: stop as soon as this many targets are settled (0: all of them). The
-  /// settled ones are then exactly the nearest ones.
+  /// settled ones are then exactly the nearest ones, this many of them (ties at the last
+  /// distance, coincident targets included, are cut in settling order), more only as
+  /// min_distance says.
   std::size_t stop_after_targets = 0;
   /// With stop_after_targets or max_windows_propagated: do not stop before every point within
   /// this distance is final, even when enough targets are settled (all targets within it are

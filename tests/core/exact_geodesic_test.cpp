@@ -1124,13 +1124,20 @@ TEST(ExactGeodesicRobustness, BoundarySourcesSymmetric) {
 // ---------------------------------------------------------------------------------------------
 // Random ugly meshes (test_meshes.h: ugly_rectangle, ugly_bumps): needles, slivers, caps,
 // zero-area faces and coincident vertices mixed at random. A fixed set of seeds runs here;
-// GEOPROX_STRESS_SEEDS=N runs N seeds instead (a soak run: bugs found that way get their seed
-// added to the fixed set).
+// GEOPROX_STRESS_SEEDS=N runs seeds 1 to N instead, GEOPROX_STRESS_SEEDS=A-B seeds A to B (a soak
+// run: bugs found that way get their seed added to the fixed set).
 
 std::vector<std::uint64_t> stress_seeds(std::vector<std::uint64_t> fixed) {
   if (const char* n = std::getenv("GEOPROX_STRESS_SEEDS")) {
+    // "N": seeds 1 to N; "A-B": seeds A to B.
+    char* end = nullptr;
+    std::uint64_t first = 1, last = std::strtoull(n, &end, 10);
+    if (*end == '-') {
+      first = last;
+      last = std::strtoull(end + 1, nullptr, 10);
+    }
     fixed.clear();
-    for (std::uint64_t s = 1, count = std::strtoull(n, nullptr, 10); s <= count; ++s) fixed.push_back(s);
+    for (std::uint64_t s = first; s <= last; ++s) fixed.push_back(s);
   }
   return fixed;
 }
@@ -1276,9 +1283,13 @@ TEST(ExactGeodesicRobustness, RandomHairlineRectanglesAreFlat) {
   // 5.7e-4), and at 1e-15 most seeds failed (4: twice too long, 14: unreachable, 16 and 17:
   // over 400 times too long); seed 331 at 1e-15 never finished: windows whose source sat at an
   // end of their own edge (a cluster of coincident vertices) went round it at an unchanging
-  // key. (Tolerances: hairline.)
-  for (const std::uint64_t seed : stress_seeds({8, 32, 43, 93, 97, 295})) check_flat_rectangle(seed, 9, hairline(true));
-  for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581})) {
+  // key. Seed 2598 at 1e-9 (3% too long) and 2352 at 1e-15 (a polyline 17% longer than its
+  // distance): a source 2.3e-14 off a sliver's long side was taken as on its line (see
+  // kOnLineTolerance). (Tolerances: hairline.)
+  for (const std::uint64_t seed : stress_seeds({8, 32, 43, 93, 97, 295, 2598})) {
+    check_flat_rectangle(seed, 9, hairline(true));
+  }
+  for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581, 2352})) {
     check_flat_rectangle(seed, 15, hairline(true));
   }
 }
@@ -1294,7 +1305,10 @@ void check_bumps(std::uint64_t seed, double thinnest, const StressTolerance& tol
 
   ExactGeodesicSolver full(mesh, *tm.geometry), bounded(mesh, *tm.geometry);
   const double scale = bbox_diagonal(mesh);
-  Tally tally(ctx + " bounded and K-target solves", scale, 1.0);
+  // Bounded, K-target and full solves agree as closely as d(s,t) and d(t,s) do: on hairline
+  // features to 1e-8 (seed 2843 at 1e-9 settled two targets 1.3e-9 of the diagonal apart in the
+  // other order: what the queue pops is only as monotone as the layouts are accurate).
+  Tally tally(ctx + " bounded and K-target solves", scale, 1.0, tolerance.symmetry);
   std::vector<SurfacePoint> vertices;
   for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) vertices.push_back(SurfacePoint::vertex(v));
   for (const SurfacePoint& s : points) {
@@ -1332,7 +1346,13 @@ void check_bumps(std::uint64_t seed, double thinnest, const StressTolerance& tol
 }
 
 TEST(ExactGeodesicRobustness, RandomUglyBumpsKeepTheInvariants) {
-  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12})) check_bumps(seed, 6, {});
+  // 3D polylines to 1e-8 of the diagonal, as on the flat rectangles: a path through faces 2e-8
+  // thin is placed in 3D only to their layouts' conditioning (seed 3577: the polyline 2.3e-9
+  // shorter than the path's intrinsic length, which equals the distance).
+  const StressTolerance ugly{-1, 1e-9, 1e-8, 1e-9};
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 3577})) {
+    check_bumps(seed, 6, ugly);
+  }
 }
 
 TEST(ExactGeodesicRobustness, RandomHairlineBumpsKeepTheInvariants) {
@@ -1341,8 +1361,14 @@ TEST(ExactGeodesicRobustness, RandomHairlineBumpsKeepTheInvariants) {
   // straight line (bumps 5, unfolded through a side of 1.5e-15 laid out 0.0023 off) and, from
   // points on edges and in faces beside such sides, polylines 1.4% longer than the distance
   // (bumps 18).
-  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 295})) check_bumps(seed, 9, hairline(false));
-  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 15, 18, 20})) check_bumps(seed, 15, hairline(false));
+  // Seed 3883: a source on a cluster of coincident vertices settled them all at distance 0,
+  // more targets than asked for; 2843 (see check_bumps).
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 295, 2843, 3883})) {
+    check_bumps(seed, 9, hairline(false));
+  }
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 15, 18, 20, 3883})) {
+    check_bumps(seed, 15, hairline(false));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
