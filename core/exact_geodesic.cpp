@@ -1049,13 +1049,24 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   // solve's instructions on armadillo, 2.6% with the call below placed after both children).
   // Its ends, corners of a thin face and so pseudo-sources, are reached through this window
   // instead.
+  // A source on the edge's line (sy = 0: create_window keeps one only within the interval) is
+  // a point of the edge, and from there it sees the whole face: both sides get a child over
+  // their whole length. Its rays through the interval run along the line, so without this a
+  // side got nothing once trimming had cut the interval down to S itself (a pseudo-source on
+  // the long side of a thin face; the points across it were then reached round a corner, 10%
+  // too long on ugly_rectangle(7246, 15)). With S inside the interval the children below are
+  // whole sides anyway. Not at a corner of the face: that corner's own view is its business
+  // (source_at_pseudo_source_end), and windows carrying it went round the corner for ever.
+  const bool sees_face = sy == 0 && sx > end_slack && sx < L - end_slack &&
+                         sx >= w.b0 - end_slack && sx <= w.b1 + end_slack;
   // Left child: edge a -> c, entered through twin(prev(h)).
-  if (w.b0 < left_end) {
+  if (w.b0 < left_end || sees_face) {
     const std::int32_t t = crossing.twin_prev;
     const double lc = geometry_->layout(TriangleMesh::prev(w.halfedge)).length;
     if (t >= 0 && lc > 0) {
-      const double t0 = exit_parameter(w.b0, 0, 0, cx, cy);
-      const double t1 = left_end >= xc ? 1.0 : exit_parameter(left_end, 0, 0, cx, cy);
+      const double t0 = sees_face ? 0.0 : exit_parameter(w.b0, 0, 0, cx, cy);
+      const double t1 =
+          sees_face || left_end >= xc ? 1.0 : exit_parameter(left_end, 0, 0, cx, cy);
       // Unit vector along a -> c; its length is that edge's length.
       const double ex = cx / lc, ey = cy / lc;
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,
@@ -1066,12 +1077,13 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
     }
   }
   // Right child: edge c -> b, entered through twin(next(h)).
-  if (w.b1 > right_begin) {
+  if (w.b1 > right_begin || sees_face) {
     const std::int32_t t = crossing.twin_next;
     const double lc = geometry_->layout(TriangleMesh::next(w.halfedge)).length;
     if (t >= 0 && lc > 0) {
-      const double t0 = right_begin <= xc ? 0.0 : exit_parameter(right_begin, cx, cy, L, 0);
-      const double t1 = exit_parameter(w.b1, cx, cy, L, 0);
+      const double t0 =
+          sees_face || right_begin <= xc ? 0.0 : exit_parameter(right_begin, cx, cy, L, 0);
+      const double t1 = sees_face ? 1.0 : exit_parameter(w.b1, cx, cy, L, 0);
       const double ex = (L - cx) / lc, ey = -cy / lc;  // unit vector along c -> b
       const double rx = sx - cx, ry = sy - cy;
       create_window(static_cast<std::uint32_t>(t), t0 * lc, t1 * lc,

@@ -1285,11 +1285,13 @@ TEST(ExactGeodesicRobustness, RandomHairlineRectanglesAreFlat) {
   // end of their own edge (a cluster of coincident vertices) went round it at an unchanging
   // key. Seed 2598 at 1e-9 (3% too long) and 2352 at 1e-15 (a polyline 17% longer than its
   // distance): a source 2.3e-14 off a sliver's long side was taken as on its line (see
-  // kOnLineTolerance). (Tolerances: hairline.)
+  // kOnLineTolerance). Seeds 4595, 4653, 5245 and 7246 at 1e-15 (from points on edges and in
+  // faces, 8-46% too long): a source on an edge's line, its interval trimmed down to it, saw
+  // nothing of the face ahead (propagate). (Tolerances: hairline.)
   for (const std::uint64_t seed : stress_seeds({8, 32, 43, 93, 97, 295, 2598})) {
     check_flat_rectangle(seed, 9, hairline(true));
   }
-  for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581, 2352})) {
+  for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581, 2352, 4595, 4653, 5245, 7246})) {
     check_flat_rectangle(seed, 15, hairline(true));
   }
 }
