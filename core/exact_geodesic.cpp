@@ -22,7 +22,7 @@ constexpr double kPruneSlack = 1e-12;
 // hairline (1.3e-9) below the corner of a sliver is 2.3e-14 off the sliver's long side, known
 // to 3e-17, and its window fans out through the sliver only near that corner. Taken as on the
 // line at 1e-12, the window saw nothing of the sliver and the path beyond went round (3% too
-// long on ugly_rectangle(2598, 9); 4000 seeds at each thinness 6, 9, 12 and 15 now all flat).
+// long on ugly_rectangle(2598, 9); 8000 seeds at each thinness 6, 9, 12 and 15 now all flat).
 constexpr double kOnLineTolerance = 1e-14;
 // A point this close (relative to the edge length) to a window's end counts as inside it.
 // Windows reaching an edge from different parents agree on their common end only to rounding,
