@@ -351,6 +351,11 @@ class ExactGeodesicSolver {
   /// to window_key(w).
   bool trim_window(Window& w, double& key) const;
   bool trim_against_edge_windows(Window& w);
+  // The interval [lo, hi] (empty unless alive) with the source point of w, which lies on its
+  // edge's line, put back in; nothing if it is in already or a window of the edge is shorter
+  // there.
+  std::optional<std::pair<double, double>> keep_source_point(const Window& w, double lo,
+                                                             double hi, bool alive) const;
   static double window_key(const Window& w);
   static double through_window(const Window& w, double x, double px, double py);
   FaceDirection into_corner(std::uint32_t vertex, FaceDirection direction) const;

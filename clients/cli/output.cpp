@@ -54,7 +54,12 @@ void write_file_atomically(const std::string& path, const std::string& text) {
     throw FileError("WriteFailed", "output path '" + path + "' does not name a file");
   }
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  const std::string pattern = (dir / ("." + target.filename().string() + ".XXXXXX")).string();
+  // Appended rather than "." + name + ...: g++ 12 at -O2 and above reports a false -Wrestrict
+  // on that (GCC bug 105651), which breaks Release builds with GEOPROX_WERROR.
+  std::string temp_name = ".";
+  temp_name += target.filename().string();
+  temp_name += ".XXXXXX";
+  const std::string pattern = (dir / temp_name).string();
   std::vector<char> name(pattern.begin(), pattern.end());
   name.push_back('\0');
 

@@ -156,7 +156,10 @@ void write_path_obj(const std::string& path, const std::vector<Vec3>& points,
     out += '\n';
   }
   out += "l";
-  for (std::size_t i = 1; i <= points.size(); ++i) out += " " + std::to_string(i);
+  for (std::size_t i = 1; i <= points.size(); ++i) {
+    out += ' ';  // not " " + ...: a false -Wrestrict of g++ 12 (see write_file_atomically)
+    out += std::to_string(i);
+  }
   if (points.size() == 1) out += " 1";
   out += '\n';
   write_file_atomically(path, out);

@@ -1270,7 +1270,10 @@ TEST(ExactGeodesicRobustness, RandomUglyRectanglesAreFlat) {
   // 300 seeds, up to 80 times too long (seeds 57 and 220; paths through a zero-area fin or
   // across a column of coincident vertices bent at a vertex of the line), some end directions
   // were NaN or not unit vectors, and with needles down to 1e-9 some vertices were unreachable.
-  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 19, 20, 57, 220})) {
+  // Seeds 13964 and 15533: paths along a line of zero-area faces went a hair past a vertex and
+  // back (polylines 1.6e-7 and 2.2e-7 too long; the spur is now dropped).
+  for (const std::uint64_t seed :
+       stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 19, 20, 57, 220, 13964, 15533})) {
     check_flat_rectangle(seed, 6, {1e-8, 1e-8, 1e-8});
   }
 }
@@ -1288,11 +1291,13 @@ TEST(ExactGeodesicRobustness, RandomHairlineRectanglesAreFlat) {
   // distance): a source 2.3e-14 off a sliver's long side was taken as on its line (see
   // kOnLineTolerance). Seeds 4595, 4653, 5245 and 7246 at 1e-15 (from points on edges and in
   // faces, 8-46% too long): a source on an edge's line, its interval trimmed down to it, saw
-  // nothing of the face ahead (propagate). (Tolerances: hairline.)
+  // nothing of the face ahead (propagate). Seed 1935 at 1e-15 (a vertex 5% too long): trimming
+  // cut such a window 7e-7 short of its source where another window merely tied with it
+  // (keep_source_point). (Tolerances: hairline.)
   for (const std::uint64_t seed : stress_seeds({8, 32, 43, 93, 97, 295, 2598})) {
     check_flat_rectangle(seed, 9, hairline(true));
   }
-  for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581, 2352, 4595, 4653, 5245, 7246})) {
+  for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581, 1935, 2352, 4595, 4653, 5245, 7246})) {
     check_flat_rectangle(seed, 15, hairline(true));
   }
 }
