@@ -30,6 +30,13 @@ constexpr double kOnLineTolerance = 1e-14;
 // which caps and needles amplify; a vertex in such a hairline gap must still be reached. Taking
 // a point up to this far outside costs a distance error of order slack^2 (negligible).
 constexpr double kVisibilitySlack = 1e-6;
+// Whether x (along an edge of length L) lies inside the edge, clear of both ends by the
+// visibility slack: a window's source there on the edge's line is a point of the edge, not a
+// corner (propagate's sees_face and keep_source_point agree on this).
+bool strictly_inside_edge(double x, double L) {
+  const double slack = kVisibilitySlack * L;
+  return x > slack && x < L - slack;
+}
 // Two windows on one halfedge that overlap by less than this (relative to the edge length),
 // neither inside the other, are not compared: cutting could only remove that sliver (or, when
 // the older one has shrunk inside its listed span, that tiny window). Such overlaps are
@@ -802,21 +809,17 @@ bool ExactGeodesicSolver::trim_against_edge_windows(Window& w) {
   // ill-conditioned: it fell 7e-7 of a 0.28 edge short of S on ugly_rectangle(1935, 15), the
   // face ahead got nothing from S, and a vertex across it was reached round a corner, 5% too
   // long. So S stays in the interval unless a window of the edge is shorter there.
-  const HalfedgeLayout& lay = geometry_->layout(w.halfedge);
-  const double L = lay.length, s = w.sx;
-  const double end_slack = kVisibilitySlack * L;
-  if (!(s > end_slack && s < L - end_slack)) return std::nullopt;
+  const double L = geometry_->layout(w.halfedge).length, s = w.sx;
+  if (!strictly_inside_edge(s, L)) return std::nullopt;
   const double kept = std::clamp(s, w.b0, w.b1);  // w's interval before the walk
   if (alive && kept >= lo && kept <= hi) return std::nullopt;
   const double slack = kPruneSlack * (w.sigma + std::abs(s) + L);  // as in the walk (sy = 0)
-  for (std::int32_t c = first_chunk(w.halfedge); c >= 0; c = chunks_[c].next) {
-    const SpanChunk& chunk = chunks_[c];
-    for (int i = 0; i < SpanChunk::kCapacity && chunk.window[i] >= 0; ++i) {
-      const Window& o = windows_[static_cast<std::size_t>(chunk.window[i] & kListedIndex)];
-      if (o.key == kInfinity || !(s >= o.b0 && s <= o.b1)) continue;
-      if (o.sigma + length2(s - o.sx, o.sy) + slack < w.sigma) return std::nullopt;
-    }
-  }
+  bool beaten = false;
+  for_each_live_window(w.halfedge, [&](std::int32_t, const Window& o) {
+    const bool covers = s >= o.b0 && s <= o.b1;
+    beaten = beaten || (covers && o.sigma + length2(s - o.sx, o.sy) + slack < w.sigma);
+  });
+  if (beaten) return std::nullopt;
   if (!alive) return std::pair{kept, kept};
   return std::pair{std::min(lo, kept), std::max(hi, kept)};
 }
@@ -1098,8 +1101,8 @@ void ExactGeodesicSolver::propagate(std::uint32_t index) {
   // (source_at_pseudo_source_end), and windows carrying it went round the corner for ever.
   // Testing this for every window costs 0.85% of a full solve's instructions on armadillo
   // (callgrind); tested lazily, or in a cold branch widening the interval, it cost 1.0-1.9%.
-  const bool sees_face = sy == 0 && sx > end_slack && sx < L - end_slack &&
-                         sx >= w.b0 - end_slack && sx <= w.b1 + end_slack;
+  const bool sees_face = sy == 0 && strictly_inside_edge(sx, L) && sx >= w.b0 - end_slack &&
+                         sx <= w.b1 + end_slack;
   // Left child: edge a -> c, entered through twin(prev(h)).
   if (w.b0 < left_end || sees_face) {
     const std::int32_t t = crossing.twin_prev;
