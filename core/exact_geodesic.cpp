@@ -1452,6 +1452,54 @@ struct PathBuilder {
   }
 };
 
+// Each crossing of an edge moved to where the path's two pieces beside it, each inside one of
+// the edge's faces, are shortest: the straight line across the edge in those faces' unfolding,
+// which an exact path already takes to rounding. Along a line of zero-area faces a crossing is
+// ill-conditioned there (the edge lies along the path, every point of the overlap is a
+// crossing) and came out up to 1e-7 ahead of the next one: the polyline went forward and back
+// (ugly_rectangle(1374, 6): 1.8e-7 longer than the distance). Positions measure the pieces, so
+// only where lengths are the positions' chords; moves that gain less than the positions'
+// rounding are not made.
+void straighten_crossings(const TriangleMesh& mesh, std::vector<PathPoint>& points) {
+  // A move changes its neighbours' best places: a few passes, until none moves.
+  for (int pass = 0; pass < 4; ++pass) {
+    bool moved = false;
+    for (std::size_t i = 1; i + 1 < points.size(); ++i) {
+      PathPoint& b = points[i];
+      if (b.point.kind != SurfacePoint::Kind::Edge) continue;
+      const Vec3 a = points[i - 1].position, c = points[i + 1].position;
+      const Vec3 p0 = SurfacePoint::edge(b.point.id, 0).position(mesh);
+      const Vec3 along = SurfacePoint::edge(b.point.id, 1).position(mesh) - p0;
+      const double length = norm(along);
+      if (!(length > 0)) continue;
+      const Vec3 u = (1 / length) * along;
+      // a and c as (position along the edge, distance from its line): the pieces are shortest
+      // on the segment from (sa, ra) to (sc, -rc), both laid out in one plane.
+      const double sa = dot(a - p0, u), sc = dot(c - p0, u), sb = b.point.t * length;
+      const double ra = norm(a - p0 - sa * u), rc = norm(c - p0 - sc * u);
+      auto pieces = [&](double x) { return norm(a - p0 - x * u) + norm(c - p0 - x * u); };
+      const double now = pieces(sb);
+      // The rounding of these positions and projections.
+      const double scale = norm(p0) + length + std::abs(sa) + std::abs(sc);
+      if (ra + rc > 1e-12 * scale) {
+        const double best = std::clamp(sa + (sc - sa) * (ra / (ra + rc)), 0.0, length);
+        if (!(pieces(best) < now - 1e-13 * scale)) continue;
+        b.point = SurfacePoint::edge(b.point.id, best / length);
+      } else {
+        // a and c on the line (to rounding): every point between them is as short, and a run
+        // of such points can still go forward and back. Each joins the one before it (or
+        // comes as near as its edge allows), so that the run advances monotonically.
+        const double best = std::clamp(std::clamp(sa, 0.0, length), std::min(sa, sc), std::max(sa, sc));
+        if (best == sb || !(pieces(best) <= now + 1e-13 * scale)) continue;
+        b.point = SurfacePoint::edge(b.point.id, best / length);
+      }
+      b.position = b.point.position(mesh);
+      moved = true;
+    }
+    if (!moved) break;
+  }
+}
+
 void faces_of(const TriangleMesh& mesh, const SurfacePoint& p, std::vector<std::uint32_t>& out) {
   out.clear();
   switch (p.kind) {
@@ -1710,6 +1758,7 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
 
   std::reverse(builder.points.begin(), builder.points.end());
   path.points = std::move(builder.points);
+  if (g.lengths_are_chords()) straighten_crossings(*mesh_, path.points);
   path.length = distance_found;
   path.source_index = source_index;
   if (!have_target_direction) {  // a path of length zero

@@ -20,6 +20,18 @@ double triangle_area(double a, double b, double c) {
   return 0.25 * std::sqrt(std::max(0.0, p));
 }
 
+// Area of face f from its corners' positions: half the cross product of the two sides at the
+// corner opposite the longest side, whose rounding (about the product of those sides times the
+// unit roundoff) is the least of the three corners'.
+double position_area(const TriangleMesh& mesh, std::uint32_t f) {
+  const Triangle& t = mesh.face(f);
+  double side[3];
+  for (int i = 0; i < 3; ++i) side[i] = norm(mesh.position(t[(i + 1) % 3]) - mesh.position(t[i]));
+  const int k = static_cast<int>(std::max_element(side, side + 3) - side);
+  const Vec3& apex = mesh.position(t[(k + 2) % 3]);
+  return 0.5 * norm(cross(mesh.position(t[k]) - apex, mesh.position(t[(k + 1) % 3]) - apex));
+}
+
 }  // namespace
 
 IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, const Options& options)
@@ -65,14 +77,26 @@ void IntrinsicGeometry::build(const Options& options) {
   const TriangleMesh& mesh = *mesh_;
   const std::size_t nh = mesh.num_halfedges();
   crossing_.assign(nh, HalfedgeCrossing{});
-  face_area_.assign(mesh.num_faces(), 0);
   angle_sum_.assign(mesh.num_vertices(), 0);
   corner_angle_.assign(nh, 0);
+  // Lengths that are the positions' chords to the last bit (computed from them, here or in a
+  // graph file) take their layouts from the positions (see the constructors): on
+  // ugly_rectangle(36888) paths across a row of zero-area faces laid out 1.8e-9 high by
+  // Heron's formula came out 2.4e-8 too long. Other lengths (a metric) have only themselves.
   lengths_are_chords_ = true;
+  bool exact_chords = true;
   for (std::uint32_t e = 0; e < mesh.num_edges() && lengths_are_chords_; ++e) {
     const double chord =
-        norm(mesh.position(mesh.edge_origin(e)) - mesh.position(mesh.edge_target(e)));
+        norm(mesh.position(mesh.edge_target(e)) - mesh.position(mesh.edge_origin(e)));
     lengths_are_chords_ = std::abs(edge_length_[e] - chord) <= 1e-12 * chord;
+    exact_chords = exact_chords && edge_length_[e] == chord;
+  }
+  face_area_.resize(mesh.num_faces());
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
+    face_area_[f] = exact_chords ? position_area(mesh, f)
+                                 : triangle_area(edge_length_[mesh.edge_of(3 * f)],
+                                                 edge_length_[mesh.edge_of(3 * f + 1)],
+                                                 edge_length_[mesh.edge_of(3 * f + 2)]);
   }
   double total = 0;
   for (double l : edge_length_) total += l;
@@ -97,11 +121,17 @@ void IntrinsicGeometry::build(const Options& options) {
     HalfedgeLayout& lay = crossing.layout;
     lay.length = ab;
     if (ab > 0) {
-      // Height from the area (Kahan's stable Heron) rather than sqrt(ca^2 - cx^2), which
-      // cancels catastrophically for caps and needles; every halfedge of a face then lays it
-      // out with the same area, so unfoldings across it agree to rounding.
-      lay.cx = (ab * ab + ca * ca - bc * bc) / (2 * ab);
-      lay.cy = std::min(ca, 2 * triangle_area(ab, bc, ca) / ab);
+      // Height from the face's area (above) rather than sqrt(ca^2 - cx^2), which cancels
+      // catastrophically for caps and needles; every halfedge of a face then lays it out with
+      // the same area, so unfoldings across it agree to rounding. Where c projects onto ab
+      // comes from the same source as the area: the lengths' formula divides their rounding
+      // by ab, which only a height from the same lengths compensates (with the positions'
+      // height, c was 1e-9 off its distances beside a side of 3.5e-9 on ugly_bumps(14025, 9),
+      // and a window carried across that face came out nearer than its parent).
+      lay.cx = exact_chords ? dot(mesh.position(mesh.opposite_vertex(h)) - mesh.position(mesh.origin(h)),
+                                  mesh.position(mesh.target(h)) - mesh.position(mesh.origin(h))) / ab
+                            : (ab * ab + ca * ca - bc * bc) / (2 * ab);
+      lay.cy = std::min(ca, 2 * face_area_[h / 3] / ab);
     } else {
       lay.cx = 0;
       lay.cy = ca;
@@ -116,8 +146,7 @@ void IntrinsicGeometry::build(const Options& options) {
     corner_angle_[h] = angle;
     angle_sum_[mesh.origin(h)] += angle;
     if (h % 3 == 0) {
-      const double area = triangle_area(ab, bc, ca);
-      face_area_[h / 3] = area;
+      const double area = face_area_[h / 3];
       degenerate_face_[h / 3] = area <= degenerate_area ? 1 : 0;
       // Height over the longest side, relative to it.
       const double longest = longest_side[h / 3] = std::max({ab, bc, ca});

@@ -79,10 +79,16 @@ class IntrinsicGeometry {
   using Options = IntrinsicGeometryOptions;
 
 
-  /// Lengths from the mesh's vertex positions.
+  /// Lengths from the mesh's vertex positions, and the layouts from them too: a face's area
+  /// (so each layout's height) from a cross product, and where its third corner projects onto
+  /// each side from a dot product. They resolve a sliver to the roundoff of its sides, where
+  /// the rounded lengths alone leave its height uncertain by about the square root of that
+  /// roundoff (a zero-area face laid out 1.8e-9 high next to sides of 0.25).
   explicit IntrinsicGeometry(const TriangleMesh& mesh, const Options& options = {});
-  /// Explicit per-edge lengths (edge ids of `mesh`): a Riemannian metric. Throws MeshError
-  /// (BadEdgeLength, TriangleInequality) naming the edge or face.
+  /// Explicit per-edge lengths (edge ids of `mesh`): a Riemannian metric. Layouts from the
+  /// lengths (areas by Heron's formula), unless every length is the positions' chord to the
+  /// last bit (a graph file's copy of the lengths): then as above, so that both constructors
+  /// give the same geometry. Throws MeshError (BadEdgeLength, TriangleInequality) naming the edge or face.
   IntrinsicGeometry(const TriangleMesh& mesh, std::vector<double> edge_lengths,
                     const Options& options = {});
 

@@ -1271,9 +1271,13 @@ TEST(ExactGeodesicRobustness, RandomUglyRectanglesAreFlat) {
   // across a column of coincident vertices bent at a vertex of the line), some end directions
   // were NaN or not unit vectors, and with needles down to 1e-9 some vertices were unreachable.
   // Seeds 13964 and 15533: paths along a line of zero-area faces went a hair past a vertex and
-  // back (polylines 1.6e-7 and 2.2e-7 too long; the spur is now dropped).
-  for (const std::uint64_t seed :
-       stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 19, 20, 57, 220, 13964, 15533})) {
+  // back (polylines 1.6e-7 and 2.2e-7 too long; the spur is now dropped). Seed 36888: distances
+  // across a row of zero-area faces 2.4e-8 too long, their heights laid out 1.8e-9 from the
+  // rounded lengths (now from the positions). Seeds 1374, 14721 and 34104: crossings of edges
+  // lying along a path placed forward and back by up to 1e-7 (polylines up to 1.9e-7 too long;
+  // path_to now straightens them).
+  for (const std::uint64_t seed : stress_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 19, 20, 57, 220, 1374,
+                                                13964, 14721, 15533, 34104, 36888})) {
     check_flat_rectangle(seed, 6, {1e-8, 1e-8, 1e-8});
   }
 }
@@ -1293,8 +1297,10 @@ TEST(ExactGeodesicRobustness, RandomHairlineRectanglesAreFlat) {
   // faces, 8-46% too long): a source on an edge's line, its interval trimmed down to it, saw
   // nothing of the face ahead (propagate). Seed 1935 at 1e-15 (a vertex 5% too long): trimming
   // cut such a window 7e-7 short of its source where another window merely tied with it
-  // (keep_source_point). (Tolerances: hairline.)
-  for (const std::uint64_t seed : stress_seeds({8, 32, 43, 93, 97, 295, 2598})) {
+  // (keep_source_point). Seeds 15524 and 36888 at 1e-9: distances up to 4.6e-9 (1.6e-8 of the
+  // diagonal) too long, through faces laid out from rounded lengths (now from the positions).
+  // (Tolerances: hairline.)
+  for (const std::uint64_t seed : stress_seeds({8, 32, 43, 93, 97, 295, 2598, 15524, 36888})) {
     check_flat_rectangle(seed, 9, hairline(true));
   }
   for (const std::uint64_t seed : stress_seeds({4, 14, 16, 17, 126, 331, 581, 1935, 2352, 4595, 4653, 5245, 7246})) {
@@ -1330,8 +1336,11 @@ void check_bumps(std::uint64_t seed, double thinnest, const StressTolerance& tol
     bounded.solve(s, within);
     for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
       const std::string where = "vertex " + std::to_string(v) + " from " + s.to_string();
-      // Within 1e-9 of the radius either answer is right.
-      if (std::abs(d[v] - radius) <= 1e-9 * scale) continue;
+      // Near the radius either answer is right: within 1e-9 of the diagonal, or within the
+      // two solves' agreement (on hairline features 1e-8: ugly_bumps(23013, 15) put a vertex
+      // 5.6e-9 inside the radius in the full solve, and the bounded solve found it outside,
+      // by less than 1e-8).
+      if (std::abs(d[v] - radius) <= std::max(1e-9 * scale, tolerance.agreement * radius)) continue;
       tally.check(bounded.distance(v), d[v] <= radius ? d[v] : kInfinity, where + " within " + fmt(radius));
     }
     const std::size_t k = 1 + sorted.size() / 5;

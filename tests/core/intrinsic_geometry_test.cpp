@@ -91,7 +91,10 @@ TEST(IntrinsicGeometry, CrossingRecordsFollowExplicitEdgeLengths) {
   const IntrinsicGeometry doubled(*spot.mesh, lengths);
   expect_records_match_mesh(*spot.mesh, doubled);
   for (std::uint32_t h = 0; h < spot.mesh->num_halfedges(); h += 97) {
-    EXPECT_DOUBLE_EQ(doubled.layout(h).cx, 2 * spot.geometry->layout(h).cx) << h;
+    // (The mesh's own layouts come from its positions, the doubled lengths' from the lengths.)
+    EXPECT_NEAR(doubled.layout(h).cx, 2 * spot.geometry->layout(h).cx,
+                1e-12 * spot.geometry->layout(h).length)
+        << h;
     EXPECT_NEAR(doubled.layout(h).cy, 2 * spot.geometry->layout(h).cy,
                 1e-12 * spot.geometry->layout(h).length)
         << h;
@@ -168,6 +171,34 @@ TEST(IntrinsicGeometry, MarksThinFacesButNotMerelyPoorOnes) {
   EXPECT_TRUE(geometry.is_degenerate_vertex(2));
   EXPECT_FALSE(geometry.is_degenerate_vertex(3));
   EXPECT_EQ(geometry.crossing(0).short_sides, 0u);  // no side is short: only thin
+}
+
+TEST(IntrinsicGeometry, LaysOutZeroAreaFacesFromThePositions) {
+  // A face of ugly_rectangle(36888): its middle corner 7e-21 off the line of the other two.
+  // From the three rounded lengths alone (Heron's formula) its height is noise of 1.8e-9, and
+  // paths across a row of such faces came out 2.4e-8 too long; from the positions it is zero
+  // to their roundoff, so the face is zero-area (degenerate), as it is.
+  const TriangleMesh mesh({{0.00088458472937772066, 4.7468027498228284e-05, 0},
+                           {0.15627783079402663, 4.7468027498228277e-05, 0},
+                           {0.2526970241734352, 4.7468027498228284e-05, 0}},
+                          {Triangle{0, 1, 2}});
+  const IntrinsicGeometry geometry(mesh);
+  for (std::uint32_t h = 0; h < 3; ++h) EXPECT_LT(geometry.layout(h).cy, 1e-16) << "halfedge " << h;
+  EXPECT_LT(geometry.face_area(0), 1e-17);
+  EXPECT_TRUE(geometry.is_degenerate_face(0));
+  // The same lengths given explicitly (a graph file's copy): the same geometry, bit for bit.
+  const IntrinsicGeometry copy(mesh, geometry.edge_lengths());
+  for (std::uint32_t h = 0; h < 3; ++h) {
+    EXPECT_EQ(copy.layout(h).cy, geometry.layout(h).cy) << "halfedge " << h;
+    EXPECT_EQ(copy.corner_angle(h), geometry.corner_angle(h)) << "halfedge " << h;
+  }
+  // Other lengths (a metric: twice these) have only Heron's formula: a height, but a finite one.
+  std::vector<double> doubled = geometry.edge_lengths();
+  for (double& l : doubled) l *= 2;
+  const IntrinsicGeometry metric(mesh, doubled);
+  for (std::uint32_t h = 0; h < 3; ++h) {
+    EXPECT_TRUE(std::isfinite(metric.layout(h).cy) && metric.layout(h).cy >= 0) << "halfedge " << h;
+  }
 }
 
 TEST(IntrinsicGeometry, KnowsWhetherItsLengthsAreTheChords) {
