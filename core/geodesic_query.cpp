@@ -361,9 +361,12 @@ bool GeodesicQuery::solve_towards(const SurfacePoint& p, const SurfacePoint& to,
   return !bounded.goal;
 }
 
-void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                  QueryScratch::Impl& s, Links& out,
-                                  bool solved_to_link_radius) const {
+// A bounded solve settles a little beyond its radius (out to the nearest window it did not
+// store), by an amount that rounding decides: exact answers from it stop at rho, so that
+// fields, matrices and point-to-point queries take the same ones.
+double GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver,
+                                    QueryScratch::Impl& s, Links& out,
+                                    bool solved_to_link_radius) const {
   out.region.clear();
   const double radius = link_solve_radius(p);
   if (radius < link_radius_ && !graph_.cover_sample.empty()) {
@@ -373,7 +376,7 @@ void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
       bounded.interrupt = s.interrupt;
       solver.solve(p, bounded);
     }
-    if (link_through_covers(solver, radius, s, out)) return;
+    if (link_through_covers(solver, radius, s, out)) return link_radius_;
     // No sample within rho through the covers (a sparse spot): link as below.
   }
   out.samples.clear();
@@ -405,7 +408,9 @@ void GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
       out.via.emplace_back(kDirect, 0.0);
       out.longest = std::max(out.longest, d);
     }
+    return kInfinity;
   }
+  return link_radius_;
 }
 
 std::vector<PathPoint> GeodesicQuery::exact_piece(const SurfacePoint& from, const SurfacePoint& to,
@@ -634,15 +639,15 @@ double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
   // A link solve may reach the other point too (a point with no sample within rho links
   // through a solve out to its nearest sample): then that exact answer stands, as in fields.
   if (!link_by_covers(s, w.links_s)) {
-    link_by_solve(s, w.solver_s, w, w.links_s, solved_s);
+    const double exact_within = link_by_solve(s, w.solver_s, w, w.links_s, solved_s);
     solved_s = true;
     const double exact = w.solver_s.distance(t);
-    if (exact < kInfinity) return exact;
+    if (exact < kInfinity && exact <= exact_within) return exact;
   }
   if (!link_by_covers(t, w.links_t)) {
-    link_by_solve(t, w.solver_t, w, w.links_t);
+    const double exact_within = link_by_solve(t, w.solver_t, w, w.links_t);
     const double exact = w.solver_t.distance(s);
-    if (exact < kInfinity) {
+    if (exact < kInfinity && exact <= exact_within) {
       solved_t = true;
       return exact;
     }
@@ -1190,10 +1195,11 @@ DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryS
     // Links as for point-to-point queries, from the solve out to rho that the exact region
     // needs anyway.
     solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
-    if (!link_by_covers(sources[k], l)) link_by_solve(sources[k], w.solver_s, w, l, true);
+    const double exact_within =
+        link_by_covers(sources[k], l) ? link_radius_ : link_by_solve(sources[k], w.solver_s, w, l, true);
     for (std::uint32_t v : w.solver_s.touched_vertices()) {
       const double d = w.solver_s.distance(v);
-      if (d <= options.max_distance) l.region.emplace_back(v, d);
+      if (d <= options.max_distance && d <= exact_within) l.region.emplace_back(v, d);
     }
     links[k] = &l;
   }
@@ -1249,6 +1255,8 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   if (w.many.size() < S + T) w.many.resize(S + T);
   // Pairs that distance() answers from the exact solves of link_pair (then not refined).
   std::vector<char> exact(S * T, 0);
+  // A solve's distance as distance() takes it: exact within `limit` (link_by_solve), else none.
+  auto within = [](double d, double limit) { return d <= limit ? d : kInfinity; };
   auto take_exact = [&](std::size_t k, double d) {
     if (d < kInfinity) exact[k] = 1;
     out[k] = std::min(out[k], d);
@@ -1257,9 +1265,9 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   // that every pair closer than it gets its exact distance, as distance() does.
   for (std::size_t j = 0; j < T; ++j) {
     if (!link_by_covers(targets[j], w.many[S + j])) {
-      link_by_solve(targets[j], w.solver_t, w, w.many[S + j]);
+      const double exact_within = link_by_solve(targets[j], w.solver_t, w, w.many[S + j]);
       for (std::size_t i = 0; i < S; ++i) {  // as in distance(): exact when reached
-        take_exact(i * T + j, w.solver_t.distance(sources[i]));
+        take_exact(i * T + j, within(w.solver_t.distance(sources[i]), exact_within));
       }
     }
   }
@@ -1270,8 +1278,11 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   for (std::size_t i = 0; i < S; ++i) {
     Links& l = w.many[i];
     solve_within_link_radius(sources[i], w.solver_s, w.interrupt);
-    if (!link_by_covers(sources[i], l)) link_by_solve(sources[i], w.solver_s, w, l, true);
-    for (std::size_t j = 0; j < T; ++j) take_exact(i * T + j, w.solver_s.distance(targets[j]));
+    const double exact_within =
+        link_by_covers(sources[i], l) ? link_radius_ : link_by_solve(sources[i], w.solver_s, w, l, true);
+    for (std::size_t j = 0; j < T; ++j) {
+      take_exact(i * T + j, within(w.solver_s.distance(targets[j]), exact_within));
+    }
     const Links* one[] = {&l};
     // The search only needs to run until every target's links are settled; the largest
     // current estimate bounds how far that can be.

@@ -241,8 +241,11 @@ class GeodesicQuery {
                             const Links& a_wide, const ExactGeodesicSolver& b,
                             const Links& b_wide) const;
   bool link_by_covers(const SurfacePoint& p, Links& out) const;
-  void link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
-                     Links& out, bool solved_to_link_radius = false) const;
+  /// Returns how far out `solver`'s distances then answer point-to-point queries from p
+  /// exactly: rho, or every distance it reached when p had no sample within rho and it solved
+  /// on to the nearest one.
+  double link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
+                       Links& out, bool solved_to_link_radius = false) const;
   double link_solve_radius(const SurfacePoint& p) const;
   double mean_face_edge(std::uint32_t face) const;
   bool link_through_covers(const ExactGeodesicSolver& solver, double radius,
