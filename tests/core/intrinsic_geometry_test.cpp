@@ -189,6 +189,7 @@ TEST(IntrinsicGeometry, LaysOutZeroAreaFacesFromThePositions) {
   // The same lengths given explicitly (a graph file's copy): the same geometry, bit for bit.
   const IntrinsicGeometry copy(mesh, geometry.edge_lengths());
   for (std::uint32_t h = 0; h < 3; ++h) {
+    EXPECT_EQ(copy.layout(h).cx, geometry.layout(h).cx) << "halfedge " << h;
     EXPECT_EQ(copy.layout(h).cy, geometry.layout(h).cy) << "halfedge " << h;
     EXPECT_EQ(copy.corner_angle(h), geometry.corner_angle(h)) << "halfedge " << h;
   }
