@@ -1481,18 +1481,20 @@ void straighten_crossings(const TriangleMesh& mesh, std::vector<PathPoint>& poin
       const double now = pieces(sb);
       // The rounding of these positions and projections.
       const double scale = norm(p0) + length + std::abs(sa) + std::abs(sc);
+      double best;
+      bool better;
       if (ra + rc > 1e-12 * scale) {
-        const double best = std::clamp(sa + (sc - sa) * (ra / (ra + rc)), 0.0, length);
-        if (!(pieces(best) < now - 1e-13 * scale)) continue;
-        b.point = SurfacePoint::edge(b.point.id, best / length);
+        best = std::clamp(sa + (sc - sa) * (ra / (ra + rc)), 0.0, length);
+        better = pieces(best) < now - 1e-13 * scale;
       } else {
         // a and c on the line (to rounding): every point between them is as short, and a run
         // of such points can still go forward and back. Each joins the one before it (or
         // comes as near as its edge allows), so that the run advances monotonically.
-        const double best = std::clamp(std::clamp(sa, 0.0, length), std::min(sa, sc), std::max(sa, sc));
-        if (best == sb || !(pieces(best) <= now + 1e-13 * scale)) continue;
-        b.point = SurfacePoint::edge(b.point.id, best / length);
+        best = std::clamp(std::clamp(sa, 0.0, length), std::min(sa, sc), std::max(sa, sc));
+        better = best != sb && pieces(best) <= now + 1e-13 * scale;
       }
+      if (!better) continue;
+      b.point = SurfacePoint::edge(b.point.id, best / length);
       b.position = b.point.position(mesh);
       moved = true;
     }

@@ -86,7 +86,9 @@ struct ExactGeodesicStats {
 
 struct ExactGeodesicOptions {
   /// Stop once every point within this geodesic distance of the sources is final (mesh
-  /// units); points farther away are reported unreachable. Infinity: the whole surface.
+  /// units); points farther away are reported unreachable, except those a little beyond that
+  /// are final too: radius_reached() may exceed this, up to the nearest window the solve did
+  /// not store, by an amount that rounding decides. Infinity: the whole surface.
   double max_distance = kInfinity;
   /// With targets: stop as soon as this many targets are settled (0: all of them). The
   /// settled ones are then exactly the nearest ones, this many of them (ties at the last

@@ -413,6 +413,11 @@ double GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& 
   return link_radius_;
 }
 
+double GeodesicQuery::link_solved(const SurfacePoint& p, ExactGeodesicSolver& solver,
+                                  QueryScratch::Impl& s, Links& out) const {
+  return link_by_covers(p, out) ? link_radius_ : link_by_solve(p, solver, s, out, true);
+}
+
 std::vector<PathPoint> GeodesicQuery::exact_piece(const SurfacePoint& from, const SurfacePoint& to,
                                                   double length, ExactGeodesicSolver& solver,
                                                   const QueryInterrupt* interrupt) const {
@@ -1195,8 +1200,7 @@ DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryS
     // Links as for point-to-point queries, from the solve out to rho that the exact region
     // needs anyway.
     solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
-    const double exact_within =
-        link_by_covers(sources[k], l) ? link_radius_ : link_by_solve(sources[k], w.solver_s, w, l, true);
+    const double exact_within = link_solved(sources[k], w.solver_s, w, l);
     for (std::uint32_t v : w.solver_s.touched_vertices()) {
       const double d = w.solver_s.distance(v);
       if (d <= options.max_distance && d <= exact_within) l.region.emplace_back(v, d);
@@ -1278,8 +1282,7 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   for (std::size_t i = 0; i < S; ++i) {
     Links& l = w.many[i];
     solve_within_link_radius(sources[i], w.solver_s, w.interrupt);
-    const double exact_within =
-        link_by_covers(sources[i], l) ? link_radius_ : link_by_solve(sources[i], w.solver_s, w, l, true);
+    const double exact_within = link_solved(sources[i], w.solver_s, w, l);
     for (std::size_t j = 0; j < T; ++j) {
       take_exact(i * T + j, within(w.solver_s.distance(targets[j]), exact_within));
     }

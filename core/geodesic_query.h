@@ -246,6 +246,10 @@ class GeodesicQuery {
   /// on to the nearest one.
   double link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
                        Links& out, bool solved_to_link_radius = false) const;
+  /// Links p, whose solve out to rho `solver` holds (fields, matrices): through its cover row
+  /// or by that solve. Returns as link_by_solve does (rho for a cover row).
+  double link_solved(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
+                     Links& out) const;
   double link_solve_radius(const SurfacePoint& p) const;
   double mean_face_edge(std::uint32_t face) const;
   bool link_through_covers(const ExactGeodesicSolver& solver, double radius,

@@ -22,11 +22,9 @@ double triangle_area(double a, double b, double c) {
 
 // Area of face f from its corners' positions: half the cross product of the two sides at the
 // corner opposite the longest side, whose rounding (about the product of those sides times the
-// unit roundoff) is the least of the three corners'.
-double position_area(const TriangleMesh& mesh, std::uint32_t f) {
+// unit roundoff) is the least of the three corners'. side[i]: the length of corner i to i + 1.
+double position_area(const TriangleMesh& mesh, std::uint32_t f, const double side[3]) {
   const Triangle& t = mesh.face(f);
-  double side[3];
-  for (int i = 0; i < 3; ++i) side[i] = norm(mesh.position(t[(i + 1) % 3]) - mesh.position(t[i]));
   const int k = static_cast<int>(std::max_element(side, side + 3) - side);
   const Vec3& apex = mesh.position(t[(k + 2) % 3]);
   return 0.5 * norm(cross(mesh.position(t[k]) - apex, mesh.position(t[(k + 1) % 3]) - apex));
@@ -93,10 +91,9 @@ void IntrinsicGeometry::build(const Options& options) {
   }
   face_area_.resize(mesh.num_faces());
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
-    face_area_[f] = exact_chords ? position_area(mesh, f)
-                                 : triangle_area(edge_length_[mesh.edge_of(3 * f)],
-                                                 edge_length_[mesh.edge_of(3 * f + 1)],
-                                                 edge_length_[mesh.edge_of(3 * f + 2)]);
+    double side[3];
+    for (std::uint32_t i = 0; i < 3; ++i) side[i] = edge_length_[mesh.edge_of(3 * f + i)];
+    face_area_[f] = exact_chords ? position_area(mesh, f, side) : triangle_area(side[0], side[1], side[2]);
   }
   double total = 0;
   for (double l : edge_length_) total += l;
