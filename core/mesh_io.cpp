@@ -1342,7 +1342,7 @@ std::string read_whole_file(const std::string& path) {
 
 }  // namespace
 
-TriangleMesh load_mesh(const std::string& path) {
+MeshSoup load_mesh_soup(const std::string& path) {
   check_readable(path);
   const std::optional<Format> format = format_of(path);
   if (!format) {
@@ -1357,10 +1357,13 @@ TriangleMesh load_mesh(const std::string& path) {
   const RawMeshRecorder recorder = read_with_openmesh(path, *format);
   cross_check(scan, recorder, *format, path);
   // The two readings agree record by record; the scan's copy keeps the file's precision.
-  std::vector<Vec3> positions = std::move(scan.positions);
-  std::vector<Triangle> faces = std::move(scan.faces);
+  return {std::move(scan.positions), std::move(scan.faces)};
+}
+
+TriangleMesh load_mesh(const std::string& path) {
+  MeshSoup soup = load_mesh_soup(path);
   try {
-    return TriangleMesh(std::move(positions), std::move(faces));
+    return TriangleMesh(std::move(soup.positions), std::move(soup.faces));
   } catch (const MeshError& e) {
     throw MeshError(e.reason(), path + ": " + e.what());
   }

@@ -18,11 +18,21 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/mesh.h"
 
 namespace geoprox {
 
 TriangleMesh load_mesh(const std::string& path);
+
+/// The file's vertices and triangles in file order, read and checked as load_mesh reads them
+/// (format, syntax, indices in range, STL welding, strips, no polygons), but not yet made into
+/// a TriangleMesh: for core/mesh_repair.h, which repairs what TriangleMesh would refuse.
+struct MeshSoup {
+  std::vector<Vec3> positions;
+  std::vector<Triangle> faces;
+};
+MeshSoup load_mesh_soup(const std::string& path);
 
 }  // namespace geoprox

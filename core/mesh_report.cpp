@@ -8,32 +8,10 @@
 #include <numeric>
 #include <string>
 
+#include "core/union_find.h"
+
 namespace geoprox {
 namespace {
-
-/// Union-find over faces with path halving; components are labelled by their lowest face.
-class FaceUnion {
- public:
-  explicit FaceUnion(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0u); }
-  std::uint32_t find(std::uint32_t f) {
-    while (parent_[f] != f) {
-      parent_[f] = parent_[parent_[f]];
-      f = parent_[f];
-    }
-    return f;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return;
-    // Keep the lower id as root so that labels are deterministic.
-    if (b < a) std::swap(a, b);
-    parent_[b] = a;
-  }
-
- private:
-  std::vector<std::uint32_t> parent_;
-};
 
 /// The boundary halfedge that follows boundary halfedge h = a->b along its loop: the one leaving
 /// b, found by turning around b from face to face (TriangleMesh guarantees a single fan).
@@ -78,7 +56,7 @@ MeshReport compute_mesh_report(const TriangleMesh& mesh, const IntrinsicGeometry
   report.edges = mesh.num_edges();
 
   // Connected components of faces across shared edges.
-  FaceUnion components(num_faces);
+  UnionFind components(num_faces);  // labelled by their lowest face
   for (std::uint32_t h = 0; h < mesh.num_halfedges(); ++h) {
     const std::int32_t t = mesh.twin(h);
     if (t >= 0)

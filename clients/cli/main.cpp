@@ -85,7 +85,13 @@ int main(int argc, char** argv) {
     print_diagnostic("error", std::string("internal error: ") + e.what() + " (a bug in geoprox)");
     return kExitInternal;
   } catch (const geoprox::Error& e) {
-    print_diagnostic("error", std::string(e.what()) + " [" + e.reason() + "]");
+    std::string hint;
+    if (dynamic_cast<const geoprox::MeshError*>(&e) &&
+        (e.reason() == "NonManifoldVertex" || e.reason() == "NonManifoldEdge" ||
+         e.reason() == "InconsistentOrientation" || e.reason() == "DegenerateFaceIndices")) {
+      hint = " ('geoprox repair MESH -o OUT.obj' writes a copy that loads)";
+    }
+    print_diagnostic("error", std::string(e.what()) + " [" + e.reason() + "]" + hint);
     return kExitInput;
   } catch (const std::bad_alloc&) {
     print_diagnostic("error", "out of memory");

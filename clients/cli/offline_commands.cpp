@@ -1,7 +1,9 @@
 // Offline commands of `geoprox`, which call geoprox::core directly (no daemon):
 //   geoprox info MESH
 //   geoprox exact MESH --source POINT... [--radius R] [--to POINT] [--metric FILE] [--out FILE]
+//   geoprox repair MESH --out FILE [--map FILE] [--no-orient]
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +19,7 @@
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
 #include "core/mesh_io.h"
+#include "core/mesh_repair.h"
 #include "core/mesh_report.h"
 #include "core/riemannian_metric.h"
 #include "core/surface_point.h"
@@ -26,6 +29,13 @@ namespace {
 
 struct InfoArgs {
   std::string mesh;
+};
+
+struct RepairArgs {
+  std::string mesh;
+  std::string out;  ///< .obj or .off
+  std::string map;  ///< empty: no map written
+  bool no_orient = false;
 };
 
 struct ExactArgs {
@@ -133,6 +143,105 @@ void run_exact(const ExactArgs& args) {
   write_result(text, args.out, args.out_given);
 }
 
+std::string lower_extension(const std::string& path) {
+  const std::size_t slash = path.find_last_of('/');
+  const std::size_t dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  std::string ext = path.substr(dot + 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::string format_repaired_mesh(const RepairedMesh& repaired, const std::string& ext,
+                                 const std::string& source) {
+  std::string text;
+  text.reserve(repaired.positions.size() * 64 + repaired.faces.size() * 24);
+  // 1-based in OBJ, 0-based in OFF.
+  const std::uint32_t base = ext == "obj" ? 1 : 0;
+  if (ext == "obj") {
+    text += "# geoprox repair of " + source + "\n";
+  } else {
+    text += "OFF\n";  // no comment: OpenMesh's OFF reader takes none
+    text += std::to_string(repaired.positions.size()) + ' ' +
+            std::to_string(repaired.faces.size()) + " 0\n";
+  }
+  for (const Vec3& p : repaired.positions) {
+    if (ext == "obj") text += "v ";
+    append_number(text, p.x);
+    text += ' ';
+    append_number(text, p.y);
+    text += ' ';
+    append_number(text, p.z);
+    text += '\n';
+  }
+  for (const Triangle& t : repaired.faces) {
+    text += ext == "obj" ? "f" : "3";
+    for (std::uint32_t v : t) text += ' ' + std::to_string(v + base);
+    text += '\n';
+  }
+  return text;
+}
+
+std::string format_repair_map(const RepairedMesh& repaired, const std::string& source,
+                              const std::string& out) {
+  std::string text = "# geoprox repair map: " + source + " -> " + out + "\n";
+  text += "# v NEW OLD: a copy appended to the mesh (vertices below " +
+          std::to_string(repaired.report.vertices_in) + " keep their ids)\n";
+  for (std::size_t v = repaired.report.vertices_in; v < repaired.source_vertex.size(); ++v) {
+    text += "v " + std::to_string(v) + ' ' + std::to_string(repaired.source_vertex[v]) + '\n';
+  }
+  text += "# f NEW OLD [flipped]: every face; flipped: corners 1 and 2 swapped\n";
+  for (std::size_t f = 0; f < repaired.faces.size(); ++f) {
+    text += "f " + std::to_string(f) + ' ' + std::to_string(repaired.source_face[f]);
+    if (repaired.flipped[f]) text += " flipped";
+    text += '\n';
+  }
+  return text;
+}
+
+void run_repair(const RepairArgs& args) {
+  const std::string ext = lower_extension(args.out);
+  if (ext != "obj" && ext != "off") {
+    throw InvalidInput("UnsupportedFormat",
+                       "--out " + args.out + ": repair writes .obj or .off files");
+  }
+  MeshSoup soup = load_mesh_soup(args.mesh);
+  MeshRepairOptions options;
+  options.orient = !args.no_orient;
+  const RepairedMesh repaired = repair_mesh(soup.positions, soup.faces, options);
+  // The result must load: anything else is a bug of repair_mesh, not of the input.
+  std::optional<TriangleMesh> mesh;
+  try {
+    mesh.emplace(repaired.positions, repaired.faces);
+  } catch (const MeshError& e) {
+    throw InternalError(std::string("the repaired mesh does not load: ") + e.what());
+  }
+  const MeshRepairReport& r = repaired.report;
+  const MeshReport after = compute_mesh_report(*mesh, IntrinsicGeometry(*mesh));
+  std::string text;
+  auto line = [&text](const char* label, const std::string& value) {
+    char head[40];
+    std::snprintf(head, sizeof head, "%24s: ", label);
+    text += head + value + '\n';
+  };
+  auto count = [](std::size_t n) { return std::to_string(n); };
+  line("input", count(r.vertices_in) + " vertices, " + count(r.faces_in) + " faces");
+  line("degenerate faces dropped", count(r.degenerate_faces_dropped));
+  line("duplicate faces dropped", count(r.duplicate_faces_dropped));
+  line("edges cut", count(r.edges_cut));
+  line("faces flipped", count(r.faces_flipped));
+  line("vertices split", count(r.vertices_split));
+  line("vertices added", count(r.vertices_added) + " (one copy per extra fan, appended)");
+  line("output", count(r.vertices_out) + " vertices, " + count(r.faces_out) + " faces, " +
+                     count(after.components) + " components, " + count(after.boundary_loops) +
+                     " boundary loops");
+  write_file_atomically(args.out, format_repaired_mesh(repaired, ext, args.mesh));
+  if (!args.map.empty()) {
+    write_file_atomically(args.map, format_repair_map(repaired, args.mesh, args.out));
+  }
+  write_output(text, "");
+}
+
 }  // namespace
 
 void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
@@ -176,6 +285,29 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
       "y towards corner 2's side. An unreachable POINT (another component, or beyond\n"
       "--radius) prints 'distance inf' and 'path 0', says 'unreachable' on stderr, exits 0.\n\n" +
       exit_code_footer());
+  auto repair_args = std::make_shared<RepairArgs>();
+  CLI::App* repair = app.add_subcommand(
+      "repair", "Write a copy of a non-manifold or badly oriented mesh that geoprox loads");
+  repair->add_option("MESH", repair_args->mesh, mesh_help)->required();
+  repair->add_option("-o,--out", repair_args->out, "The repaired mesh (.obj or .off), written atomically")
+      ->required();
+  repair->add_option("--map", repair_args->map,
+                     "Also write which input vertex each added vertex copies, and each face's "
+                     "input id and whether it was turned round");
+  repair->add_flag("--no-orient", repair_args->no_orient,
+                   "Turn no face round: cut the mesh where two faces disagree instead");
+  repair->footer(
+      "What changes, in this order (docs/meshes.md): faces that repeat a vertex and faces over\n"
+      "the same three vertices as an earlier face are dropped; edges with three or more faces\n"
+      "are cut open; faces are turned round to orient each sheet consistently, turning the\n"
+      "fewer (an edge no orientation fixes, as on a Moebius strip, is cut); a vertex whose\n"
+      "faces form several fans gets a copy per extra fan. Vertex ids are kept (copies are\n"
+      "appended), faces keep their order less those dropped, and positions are copied bit\n"
+      "for bit. The counts are printed on standard output.\n\n" +
+      exit_code_footer());
+  commands.push_back({repair, [repair_args] { run_repair(*repair_args); }});
+
+
   commands.push_back({exact, [exact_args, exact] {
                         exact_args->out_given = exact->count("--out") > 0;
                         exact_args->to_given = exact->count("--to") > 0;

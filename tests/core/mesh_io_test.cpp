@@ -10,16 +10,13 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "tests/core/test_support.h"
 
 namespace geoprox {
 namespace {
 
-std::string test_file(const std::string& name) {
-  return std::string(GEOPROX_SOURCE_DIR) + "/tests/data/" + name;
-}
-std::string shipped_mesh(const std::string& name) {
-  return std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
-}
+using test_support::shipped_mesh_file;
+using test_support::test_data_file;
 
 bool contains(const std::string& text, const std::string& fragment) {
   return text.find(fragment) != std::string::npos;
@@ -60,7 +57,7 @@ class MeshIoShipped : public ::testing::TestWithParam<ShippedMesh> {};
 
 TEST_P(MeshIoShipped, LoadsWithTheDocumentedCounts) {
   const ShippedMesh& expected = GetParam();
-  const TriangleMesh mesh = load_mesh(shipped_mesh(expected.file));
+  const TriangleMesh mesh = load_mesh(shipped_mesh_file(expected.file));
   EXPECT_EQ(mesh.num_faces(), expected.faces);
   EXPECT_EQ(mesh.num_vertices(), expected.vertices);
 }
@@ -82,7 +79,7 @@ INSTANTIATE_TEST_SUITE_P(DataMeshes, MeshIoShipped,
 TEST(MeshIo, PigStlIsRefusedForItsNonManifoldVertices) {
   // Documented in data/meshes/README.md: 8,642 welded vertices, 421 of them with two fans.
   expect_refusal<MeshError>(
-      shipped_mesh("pig.stl"), "NonManifoldVertex",
+      shipped_mesh_file("pig.stl"), "NonManifoldVertex",
       {"pig.stl", "face 3156 (vertices 1807 1808 90)", "vertex 90", "face 143"});
 }
 
@@ -120,9 +117,9 @@ Triangle first_off_face(const std::string& path) {
 }
 
 TEST(MeshIo, ShippedIdsAreFileOrder) {
-  const std::string spot = shipped_mesh("spot.obj");
+  const std::string spot = shipped_mesh_file("spot.obj");
   EXPECT_EQ(load_mesh(spot).face(0), first_obj_face(spot));
-  const std::string cheese = shipped_mesh("cheese.off");
+  const std::string cheese = shipped_mesh_file("cheese.off");
   EXPECT_EQ(load_mesh(cheese).face(0), first_off_face(cheese));
   // The first vertex line of spot.obj is "v 0.348799 -0.334989 -0.0832331"; the file's decimal
   // digits are kept in double precision, not OpenMesh's float.
@@ -170,8 +167,8 @@ TEST(MeshIo, DirtySharedMeshesAreRefusedOrLoadAsDocumented) {
 // Formats.
 
 TEST(MeshIo, AsciiAndBinaryPlyGiveIdenticalMeshes) {
-  const TriangleMesh ascii = load_mesh(test_file("octahedron.ply"));
-  const TriangleMesh binary = load_mesh(test_file("octahedron_binary.ply"));
+  const TriangleMesh ascii = load_mesh(test_data_file("octahedron.ply"));
+  const TriangleMesh binary = load_mesh(test_data_file("octahedron_binary.ply"));
   ASSERT_EQ(ascii.num_vertices(), 6u);
   ASSERT_EQ(ascii.num_faces(), 8u);
   ASSERT_EQ(binary.num_vertices(), ascii.num_vertices());
@@ -197,7 +194,7 @@ TEST(MeshIo, PlyTriangleStripsUnrollInStripOrder) {
                                           {3, 6, 4}, {4, 6, 7}, {4, 7, 5}, {5, 7, 8}};
   for (const char* name : {"strips.ply", "strips_binary.ply"}) {
     SCOPED_TRACE(name);
-    const TriangleMesh mesh = load_mesh(test_file(name));
+    const TriangleMesh mesh = load_mesh(test_data_file(name));
     ASSERT_EQ(mesh.num_vertices(), 9u);
     EXPECT_EQ(mesh.faces(), expected);
     EXPECT_EQ(mesh.num_edges(), 16u);  // one consistently oriented disk
@@ -262,7 +259,7 @@ TEST(MeshIo, StlCornersWeldInOrderOfFirstUse) {
   // id 1 and p1 id 2; p3 first appears in facet 1.
   for (const char* name : {"tetrahedron_ascii.stl", "tetrahedron_binary.stl"}) {
     SCOPED_TRACE(name);
-    const TriangleMesh mesh = load_mesh(test_file(name));
+    const TriangleMesh mesh = load_mesh(test_data_file(name));
     ASSERT_EQ(mesh.num_vertices(), 4u);
     ASSERT_EQ(mesh.num_faces(), 4u);
     EXPECT_EQ(mesh.face(0), (Triangle{0, 1, 2}));
@@ -276,14 +273,14 @@ TEST(MeshIo, StlCornersWeldInOrderOfFirstUse) {
     EXPECT_EQ(mesh.position(3).z, 1.0);
     EXPECT_EQ(mesh.num_edges(), 6u);  // closed: every edge has two faces
   }
-  const TriangleMesh ascii = load_mesh(test_file("tetrahedron_ascii.stl"));
-  const TriangleMesh binary = load_mesh(test_file("tetrahedron_binary.stl"));
+  const TriangleMesh ascii = load_mesh(test_data_file("tetrahedron_ascii.stl"));
+  const TriangleMesh binary = load_mesh(test_data_file("tetrahedron_binary.stl"));
   EXPECT_EQ(ascii.faces(), binary.faces());
 }
 
 TEST(MeshIo, OffColoursAreSkipped) {
   // COFF: colours after the coordinates and after a face's corners (optional per face).
-  const TriangleMesh mesh = load_mesh(test_file("coloured.off"));
+  const TriangleMesh mesh = load_mesh(test_data_file("coloured.off"));
   ASSERT_EQ(mesh.num_vertices(), 4u);
   ASSERT_EQ(mesh.num_faces(), 2u);
   EXPECT_EQ(mesh.face(0), (Triangle{1, 2, 0}));
@@ -293,7 +290,7 @@ TEST(MeshIo, OffColoursAreSkipped) {
 }
 
 TEST(MeshIo, ObjIdsAreFileOrderAndIsolatedVerticesStay) {
-  const TriangleMesh mesh = load_mesh(test_file("isolated_vertex.obj"));
+  const TriangleMesh mesh = load_mesh(test_data_file("isolated_vertex.obj"));
   EXPECT_EQ(mesh.num_vertices(), 5u);
   EXPECT_EQ(mesh.num_faces(), 2u);
   EXPECT_EQ(mesh.face(0), (Triangle{3, 0, 1}));  // "f 4 1 2"
@@ -305,7 +302,7 @@ TEST(MeshIo, ObjIdsAreFileOrderAndIsolatedVerticesStay) {
 }
 
 TEST(MeshIo, ObjNegativeIndicesAndFullPrecision) {
-  const TriangleMesh mesh = load_mesh(test_file("negative_indices.obj"));
+  const TriangleMesh mesh = load_mesh(test_data_file("negative_indices.obj"));
   ASSERT_EQ(mesh.num_faces(), 2u);
   EXPECT_EQ(mesh.face(0), (Triangle{0, 1, 2}));  // "f -3 -2 -1" after three vertices
   EXPECT_EQ(mesh.face(1), (Triangle{1, 3, 2}));
@@ -314,21 +311,21 @@ TEST(MeshIo, ObjNegativeIndicesAndFullPrecision) {
 
 TEST(MeshIo, OpenMeshWarningsDoNotReachStderr) {
   ::testing::internal::CaptureStderr();
-  const TriangleMesh mesh = load_mesh(test_file("missing_material.obj"));
+  const TriangleMesh mesh = load_mesh(test_data_file("missing_material.obj"));
   const std::string printed = ::testing::internal::GetCapturedStderr();
   EXPECT_EQ(mesh.num_faces(), 1u);
   EXPECT_EQ(printed, "");
 }
 
 TEST(MeshIo, TwoComponentsAndHoleLoad) {
-  const TriangleMesh two = load_mesh(test_file("two_components.obj"));
+  const TriangleMesh two = load_mesh(test_data_file("two_components.obj"));
   EXPECT_EQ(two.num_vertices(), 8u);
   EXPECT_EQ(two.num_faces(), 6u);
-  const TriangleMesh hole = load_mesh(test_file("hole.obj"));
+  const TriangleMesh hole = load_mesh(test_data_file("hole.obj"));
   EXPECT_EQ(hole.num_vertices(), 16u);
   EXPECT_EQ(hole.num_faces(), 16u);
   EXPECT_EQ(hole.num_edges(), 32u);
-  const TriangleMesh needle = load_mesh(test_file("needle.obj"));
+  const TriangleMesh needle = load_mesh(test_data_file("needle.obj"));
   EXPECT_EQ(needle.num_faces(), 4u);
   EXPECT_EQ(needle.position(4).x, 1.5000001);
 }
@@ -337,56 +334,56 @@ TEST(MeshIo, TwoComponentsAndHoleLoad) {
 // Refusals: the reason, and a message naming the file and the face or vertex.
 
 TEST(MeshIoRefusal, NonManifoldEdge) {
-  expect_refusal<MeshError>(test_file("nonmanifold_edge.obj"), "NonManifoldEdge",
+  expect_refusal<MeshError>(test_data_file("nonmanifold_edge.obj"), "NonManifoldEdge",
                             {"nonmanifold_edge.obj", "face 2 (vertices 0 1 4)", "face 0"});
 }
 
 TEST(MeshIoRefusal, BowtieVertex) {
-  expect_refusal<MeshError>(test_file("bowtie.obj"), "NonManifoldVertex",
+  expect_refusal<MeshError>(test_data_file("bowtie.obj"), "NonManifoldVertex",
                             {"bowtie.obj", "vertex 0", "face 1 (vertices 0 3 4)", "face 0"});
 }
 
 TEST(MeshIoRefusal, InconsistentOrientation) {
-  expect_refusal<MeshError>(test_file("flipped_face.obj"), "InconsistentOrientation",
+  expect_refusal<MeshError>(test_data_file("flipped_face.obj"), "InconsistentOrientation",
                             {"flipped_face.obj", "face 1 (vertices 2 0 3)", "2->0", "face 0"});
 }
 
 TEST(MeshIoRefusal, EmptyFile) {
-  expect_refusal<MeshError>(test_file("empty.obj"), "EmptyMesh", {"empty.obj", "empty"});
+  expect_refusal<MeshError>(test_data_file("empty.obj"), "EmptyMesh", {"empty.obj", "empty"});
 }
 
 TEST(MeshIoRefusal, NanCoordinateReachesTheCheck) {
   // OpenMesh's OBJ reader alone would drop the line and renumber the later vertices.
-  expect_refusal<MeshError>(test_file("nan_coordinate.obj"), "NonFiniteCoordinate",
+  expect_refusal<MeshError>(test_data_file("nan_coordinate.obj"), "NonFiniteCoordinate",
                             {"nan_coordinate.obj:3", "vertex 1", "nan"});
 }
 
 TEST(MeshIoRefusal, QuadFace) {
-  expect_refusal<MeshError>(test_file("quad_face.obj"), "NonTriangleFace",
+  expect_refusal<MeshError>(test_data_file("quad_face.obj"), "NonTriangleFace",
                             {"quad_face.obj:8", "face 1 has 4 corners"});
   // Binary PLY polygons reach the check through OpenMesh's importer.
-  expect_refusal<MeshError>(test_file("quad_binary.ply"), "NonTriangleFace",
+  expect_refusal<MeshError>(test_data_file("quad_binary.ply"), "NonTriangleFace",
                             {"quad_binary.ply", "face 1 has 4 corners"});
 }
 
 TEST(MeshIoRefusal, StlDegenerateFacetIsNotDroppedSilently) {
-  expect_refusal<MeshError>(test_file("degenerate_facet.stl"), "DegenerateFaceIndices",
+  expect_refusal<MeshError>(test_data_file("degenerate_facet.stl"), "DegenerateFaceIndices",
                             {"degenerate_facet.stl", "STL facet 1", "same point"});
 }
 
 TEST(MeshIoRefusal, StlNanCornerIsNotWeldedAway) {
-  expect_refusal<MeshError>(test_file("nan_corner.stl"), "NonFiniteCoordinate",
+  expect_refusal<MeshError>(test_data_file("nan_corner.stl"), "NonFiniteCoordinate",
                             {"nan_corner.stl", "corner 2 of STL facet 1", "nan"});
 }
 
 TEST(MeshIoRefusal, FileErrors) {
-  expect_refusal<FileError>(test_file("no_such_mesh.obj"), "FileNotFound", {"no_such_mesh.obj"});
-  expect_refusal<FileError>(test_file(""), "FileNotFound", {"directory"});
-  expect_refusal<FileError>(test_file("unknown_format.xyz"), "UnsupportedFormat",
+  expect_refusal<FileError>(test_data_file("no_such_mesh.obj"), "FileNotFound", {"no_such_mesh.obj"});
+  expect_refusal<FileError>(test_data_file(""), "FileNotFound", {"directory"});
+  expect_refusal<FileError>(test_data_file("unknown_format.xyz"), "UnsupportedFormat",
                             {"unknown_format.xyz", ".obj"});
-  expect_refusal<FileError>(test_file("bad_number.obj"), "ParseError",
+  expect_refusal<FileError>(test_data_file("bad_number.obj"), "ParseError",
                             {"bad_number.obj:2", "vertex 1", "'0.5x'"});
-  expect_refusal<FileError>(test_file("truncated.off"), "ParseError",
+  expect_refusal<FileError>(test_data_file("truncated.off"), "ParseError",
                             {"truncated.off", "vertex 3 of the 5"});
 }
 
@@ -395,28 +392,28 @@ TEST(MeshIoRefusal, OpenMeshFailureIsAParseErrorWithItsMessage) {
   // would have printed on stderr ends up in the message instead.
   ::testing::internal::CaptureStderr();
   expect_refusal<FileError>(
-      test_file("texcoord_1d.obj"), "ParseError",
+      test_data_file("texcoord_1d.obj"), "ParseError",
       {"texcoord_1d.obj", "OpenMesh could not read this OBJ file", "texture coordinate"});
   EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
 }
 
 TEST(MeshIoRefusal, TruncatedBinaryPly) {
-  expect_refusal<FileError>(test_file("cut_binary.ply"), "ParseError",
+  expect_refusal<FileError>(test_data_file("cut_binary.ply"), "ParseError",
                             {"cut_binary.ply", "ends in face 6 of the 8"});
 }
 
 TEST(MeshIoRefusal, BinaryPlyThatOpenMeshWouldMisread) {
   // With a comment as the last header line, OpenMesh 9 reads the binary data one byte off and
   // reports success (vertex 0 comes out as (5.8e-39, 0, 0)); geoprox refuses the file.
-  expect_refusal<FileError>(test_file("comment_before_end_header.ply"), "ParseError",
+  expect_refusal<FileError>(test_data_file("comment_before_end_header.ply"), "ParseError",
                             {"comment_before_end_header.ply", "end_header"});
 }
 
 TEST(MeshIoRefusal, ErrorsAreQuiet) {
   ::testing::internal::CaptureStderr();
-  EXPECT_THROW(load_mesh(test_file("truncated.off")), FileError);
-  EXPECT_THROW(load_mesh(test_file("quad_binary.ply")), MeshError);
-  EXPECT_THROW(load_mesh(test_file("nan_corner.stl")), MeshError);
+  EXPECT_THROW(load_mesh(test_data_file("truncated.off")), FileError);
+  EXPECT_THROW(load_mesh(test_data_file("quad_binary.ply")), MeshError);
+  EXPECT_THROW(load_mesh(test_data_file("nan_corner.stl")), MeshError);
   EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
 }
 
@@ -433,7 +430,7 @@ std::string fuzz_reproducer_file(const std::string& name) {
   bytes << in.rdbuf();
   const std::string input = bytes.str();
   EXPECT_FALSE(input.empty()) << "no reproducer " << name;
-  if (input.empty()) return test_file("no_such_reproducer.obj");
+  if (input.empty()) return test_data_file("no_such_reproducer.obj");
   static const char* const kExtensions[] = {".obj", ".off", ".ply", ".stl"};
   const std::string path = ::testing::TempDir() + "geoprox-fuzz-" + name +
                            kExtensions[static_cast<unsigned char>(input[0]) % 4];

@@ -11,16 +11,13 @@
 
 #include "core/intrinsic_geometry.h"
 #include "core/mesh_io.h"
+#include "tests/core/test_support.h"
 
 namespace geoprox {
 namespace {
 
-std::string test_file(const std::string& name) {
-  return std::string(GEOPROX_SOURCE_DIR) + "/tests/data/" + name;
-}
-std::string shipped_mesh(const std::string& name) {
-  return std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
-}
+using test_support::shipped_mesh_file;
+using test_support::test_data_file;
 
 MeshReport report_of(const TriangleMesh& mesh) {
   const IntrinsicGeometry geometry(mesh);
@@ -52,7 +49,7 @@ TriangleMesh torus(std::uint32_t n, std::uint32_t m) {
 }
 
 TEST(MeshReport, OctahedronIsARegularSphere) {
-  const MeshReport r = report_of_file(test_file("octahedron.ply"));
+  const MeshReport r = report_of_file(test_data_file("octahedron.ply"));
   EXPECT_EQ(r.vertices, 6u);
   EXPECT_EQ(r.faces, 8u);
   EXPECT_EQ(r.edges, 12u);
@@ -89,7 +86,7 @@ TEST(MeshReport, TorusHasGenusOne) {
 }
 
 TEST(MeshReport, HoleGivesTwoBoundaryLoops) {
-  const MeshReport r = report_of_file(test_file("hole.obj"));
+  const MeshReport r = report_of_file(test_data_file("hole.obj"));
   EXPECT_EQ(r.faces, 16u);
   EXPECT_EQ(r.edges, 32u);
   EXPECT_EQ(r.boundary_edges, 16u);  // 12 outside, 4 around the hole
@@ -102,7 +99,7 @@ TEST(MeshReport, HoleGivesTwoBoundaryLoops) {
 }
 
 TEST(MeshReport, TwoComponentsInOrderOfLowestFace) {
-  const MeshReport r = report_of_file(test_file("two_components.obj"));
+  const MeshReport r = report_of_file(test_data_file("two_components.obj"));
   EXPECT_EQ(r.components, 2u);
   EXPECT_EQ(r.genus_per_component, (std::vector<long>{0, 0}));
   EXPECT_EQ(r.boundary_loops, 1u);  // the square's rim; the tetrahedron is closed
@@ -129,7 +126,7 @@ TEST(MeshReport, TorusAndSquareComponentsKeepTheirGenus) {
 }
 
 TEST(MeshReport, IsolatedVertexCountedButOutsideTheBox) {
-  const MeshReport r = report_of_file(test_file("isolated_vertex.obj"));
+  const MeshReport r = report_of_file(test_data_file("isolated_vertex.obj"));
   EXPECT_EQ(r.vertices, 5u);
   EXPECT_EQ(r.isolated_vertices, 1u);
   EXPECT_EQ(r.components, 1u);
@@ -140,7 +137,7 @@ TEST(MeshReport, IsolatedVertexCountedButOutsideTheBox) {
 }
 
 TEST(MeshReport, NeedleAndCap) {
-  const MeshReport r = report_of_file(test_file("needle.obj"));
+  const MeshReport r = report_of_file(test_data_file("needle.obj"));
   EXPECT_EQ(r.faces, 4u);
   EXPECT_EQ(r.degenerate_faces, 1u);  // the cap (zero area); the needle has area 1e-7
   EXPECT_EQ(r.thin_faces, 1u);        // the needle: height 1.4e-7 over its longest side of 1.41
@@ -177,27 +174,27 @@ TEST(MeshReport, SaddleVertex) {
 }
 
 TEST(MeshReport, ShippedMeshes) {
-  const MeshReport spot = report_of_file(shipped_mesh("spot.obj"));
+  const MeshReport spot = report_of_file(shipped_mesh_file("spot.obj"));
   EXPECT_EQ(spot.components, 1u);
   EXPECT_EQ(spot.genus_per_component, std::vector<long>{0});
   EXPECT_EQ(spot.boundary_loops, 0u);
   EXPECT_EQ(spot.edges, 8784u);  // closed genus 0: E = V + F - 2
 
-  const MeshReport plane = report_of_file(shipped_mesh("plane_holes.obj"));
+  const MeshReport plane = report_of_file(shipped_mesh_file("plane_holes.obj"));
   EXPECT_EQ(plane.boundary_loops, 27u);
   EXPECT_EQ(plane.components, 1u);
   EXPECT_EQ(plane.genus_per_component, std::vector<long>{0});
 
-  const MeshReport cheese = report_of_file(shipped_mesh("cheese.off"));
+  const MeshReport cheese = report_of_file(shipped_mesh_file("cheese.off"));
   EXPECT_EQ(cheese.components, 1u);
   EXPECT_EQ(cheese.boundary_loops, 0u);
   EXPECT_EQ(cheese.genus_per_component, std::vector<long>{133});
 
-  const MeshReport dragon = report_of_file(shipped_mesh("ChineseDragon-10kv.off"));
+  const MeshReport dragon = report_of_file(shipped_mesh_file("ChineseDragon-10kv.off"));
   EXPECT_EQ(dragon.boundary_loops, 2u);
   EXPECT_EQ(dragon.genus_per_component, std::vector<long>{0});
 
-  const MeshReport blade = report_of_file(shipped_mesh("blade.off"));
+  const MeshReport blade = report_of_file(shipped_mesh_file("blade.off"));
   EXPECT_EQ(blade.boundary_loops, 2u);
   EXPECT_EQ(blade.genus_per_component, std::vector<long>{0});
   EXPECT_LT(blade.lo_quality_mean, 0.05);  // poor triangulation (spot: 0.12)
@@ -205,7 +202,7 @@ TEST(MeshReport, ShippedMeshes) {
 }
 
 TEST(MeshReport, FormatIsAlignedLabelValueLines) {
-  const std::string text = format_mesh_report(report_of_file(test_file("two_components.obj")));
+  const std::string text = format_mesh_report(report_of_file(test_data_file("two_components.obj")));
   EXPECT_NE(text.find("vertices: 8\n"), std::string::npos) << text;
   EXPECT_NE(text.find("faces: 6\n"), std::string::npos) << text;
   EXPECT_NE(text.find("boundary loops: 1\n"), std::string::npos) << text;

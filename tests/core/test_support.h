@@ -58,9 +58,18 @@ inline void expect_same_graph(const ProximityGraphView& v, const ProximityGraph&
   EXPECT_TRUE(same_bits(v.cover_distance, g.cover_distance));
 }
 
-/// A mesh of data/meshes/ (the repository's own copies), loaded once per call.
+/// Path of a file of tests/data/ (small hand-made meshes, good and bad).
+inline std::string test_data_file(const std::string& name) {
+  return std::string(GEOPROX_SOURCE_DIR) + "/tests/data/" + name;
+}
+/// Path of a mesh of data/meshes/ (the repository's own copies).
+inline std::string shipped_mesh_file(const std::string& name) {
+  return std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
+}
+
+/// A mesh of data/meshes/, loaded once per call.
 inline test_meshes::TestMesh shipped_mesh(const std::string& name) {
-  const std::string path = std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
+  const std::string path = shipped_mesh_file(name);
   test_meshes::TestMesh out;
   out.mesh = std::make_unique<TriangleMesh>(load_mesh(path));
   out.geometry = std::make_unique<IntrinsicGeometry>(*out.mesh);

@@ -1,5 +1,6 @@
 // libFuzzer target: the mesh loaders (core/mesh_io.h) on hostile files, then what `geoprox info`
-// computes from a mesh that loaded (core/mesh_report.h).
+// computes from a mesh that loaded (core/mesh_report.h), and what `geoprox repair` makes of the
+// file (core/mesh_repair.h).
 //
 // Input: one selector byte, then the file's bytes. The selector picks the extension, which is
 // what picks the reader: 0 .obj, 1 .off, 2 .ply (ascii or binary, from its header), 3 .stl
@@ -7,7 +8,8 @@
 // from tests/data/ accordingly.
 //
 // Findings: any crash, sanitizer report or hang, any exception other than the documented
-// FileError / MeshError, and a loaded mesh that breaks what load_mesh promises.
+// FileError / MeshError, a loaded mesh that breaks what load_mesh promises, a repaired mesh
+// that does not load, and a repair that changes a mesh that loaded.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -17,6 +19,7 @@
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
 #include "core/mesh_io.h"
+#include "core/mesh_repair.h"
 #include "core/mesh_report.h"
 #include "tests/fuzz/fuzz_support.h"
 
@@ -38,14 +41,40 @@ void check_loaded_mesh(const geoprox::TriangleMesh& mesh) {
   }
 }
 
+// What `geoprox repair` does with the file: its result loads, and equals a mesh that loaded.
+void check_repair(const std::string& path, bool loaded) {
+  geoprox::MeshSoup soup;
+  try {
+    soup = geoprox::load_mesh_soup(path);
+  } catch (const geoprox::Error&) {
+    GEOPROX_FUZZ_CHECK(!loaded, "a file that loads reads as a soup");
+    return;
+  }
+  if (soup.faces.empty()) return;  // EmptyMesh, as load_mesh says
+  const geoprox::RepairedMesh repaired = geoprox::repair_mesh(soup.positions, soup.faces);
+  if (loaded) {
+    GEOPROX_FUZZ_CHECK(repaired.report.unchanged() && repaired.faces == soup.faces &&
+                           repaired.positions.size() == soup.positions.size(),
+                       "repair leaves a mesh that loads as it is");
+  }
+  if (repaired.faces.empty()) return;  // every face repeated a vertex
+  try {
+    check_loaded_mesh(geoprox::TriangleMesh(repaired.positions, repaired.faces));
+  } catch (const geoprox::MeshError&) {
+    GEOPROX_FUZZ_CHECK(false, "a repaired mesh loads");
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   static const char* const kNames[] = {"input.obj", "input.off", "input.ply", "input.stl"};
   const std::string path = scratch.write(kNames[data[0] % 4], data + 1, size - 1);
+  bool loaded = false;
   try {
     const geoprox::TriangleMesh mesh = geoprox::load_mesh(path);
+    loaded = true;
     check_loaded_mesh(mesh);
     // What `geoprox info` does next. Geometry may still refuse the mesh (edge lengths that
     // overflow to infinity): a MeshError, caught below.
@@ -62,5 +91,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const geoprox::FileError&) {
   } catch (const geoprox::MeshError&) {
   }
+  check_repair(path, loaded);
   return 0;
 }
