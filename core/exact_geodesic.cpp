@@ -1468,8 +1468,8 @@ void straighten_crossings(const TriangleMesh& mesh, std::vector<PathPoint>& poin
       PathPoint& b = points[i];
       if (b.point.kind != SurfacePoint::Kind::Edge) continue;
       const Vec3 a = points[i - 1].position, c = points[i + 1].position;
-      const Vec3 p0 = SurfacePoint::edge(b.point.id, 0).position(mesh);
-      const Vec3 along = SurfacePoint::edge(b.point.id, 1).position(mesh) - p0;
+      const Vec3& p0 = mesh.position(mesh.edge_origin(b.point.id));
+      const Vec3 along = mesh.position(mesh.edge_target(b.point.id)) - p0;
       const double length = norm(along);
       if (!(length > 0)) continue;
       const Vec3 u = (1 / length) * along;

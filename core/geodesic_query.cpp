@@ -361,6 +361,14 @@ bool GeodesicQuery::solve_towards(const SurfacePoint& p, const SurfacePoint& to,
   return !bounded.goal;
 }
 
+namespace {
+
+// A link solve's distance as point-to-point queries take it: exact out to `exact_within` (what
+// link_by_solve returns), else none.
+double exact_up_to(double d, double exact_within) { return d <= exact_within ? d : kInfinity; }
+
+}  // namespace
+
 // A bounded solve settles a little beyond its radius (out to the nearest window it did not
 // store), by an amount that rounding decides: exact answers from it stop at rho, so that
 // fields, matrices and point-to-point queries take the same ones.
@@ -646,13 +654,13 @@ double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
   if (!link_by_covers(s, w.links_s)) {
     const double exact_within = link_by_solve(s, w.solver_s, w, w.links_s, solved_s);
     solved_s = true;
-    const double exact = w.solver_s.distance(t);
-    if (exact < kInfinity && exact <= exact_within) return exact;
+    const double exact = exact_up_to(w.solver_s.distance(t), exact_within);
+    if (exact < kInfinity) return exact;
   }
   if (!link_by_covers(t, w.links_t)) {
     const double exact_within = link_by_solve(t, w.solver_t, w, w.links_t);
-    const double exact = w.solver_t.distance(s);
-    if (exact < kInfinity && exact <= exact_within) {
+    const double exact = exact_up_to(w.solver_t.distance(s), exact_within);
+    if (exact < kInfinity) {
       solved_t = true;
       return exact;
     }
@@ -1259,8 +1267,6 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
   if (w.many.size() < S + T) w.many.resize(S + T);
   // Pairs that distance() answers from the exact solves of link_pair (then not refined).
   std::vector<char> exact(S * T, 0);
-  // A solve's distance as distance() takes it: exact within `limit` (link_by_solve), else none.
-  auto within = [](double d, double limit) { return d <= limit ? d : kInfinity; };
   auto take_exact = [&](std::size_t k, double d) {
     if (d < kInfinity) exact[k] = 1;
     out[k] = std::min(out[k], d);
@@ -1271,7 +1277,7 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
     if (!link_by_covers(targets[j], w.many[S + j])) {
       const double exact_within = link_by_solve(targets[j], w.solver_t, w, w.many[S + j]);
       for (std::size_t i = 0; i < S; ++i) {  // as in distance(): exact when reached
-        take_exact(i * T + j, within(w.solver_t.distance(sources[i]), exact_within));
+        take_exact(i * T + j, exact_up_to(w.solver_t.distance(sources[i]), exact_within));
       }
     }
   }
@@ -1284,7 +1290,7 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
     solve_within_link_radius(sources[i], w.solver_s, w.interrupt);
     const double exact_within = link_solved(sources[i], w.solver_s, w, l);
     for (std::size_t j = 0; j < T; ++j) {
-      take_exact(i * T + j, within(w.solver_s.distance(targets[j]), exact_within));
+      take_exact(i * T + j, exact_up_to(w.solver_s.distance(targets[j]), exact_within));
     }
     const Links* one[] = {&l};
     // The search only needs to run until every target's links are settled; the largest

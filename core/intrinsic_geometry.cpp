@@ -93,7 +93,8 @@ void IntrinsicGeometry::build(const Options& options) {
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
     double side[3];
     for (std::uint32_t i = 0; i < 3; ++i) side[i] = edge_length_[mesh.edge_of(3 * f + i)];
-    face_area_[f] = exact_chords ? position_area(mesh, f, side) : triangle_area(side[0], side[1], side[2]);
+    face_area_[f] =
+        exact_chords ? position_area(mesh, f, side) : triangle_area(side[0], side[1], side[2]);
   }
   double total = 0;
   for (double l : edge_length_) total += l;
@@ -125,9 +126,13 @@ void IntrinsicGeometry::build(const Options& options) {
       // by ab, which only a height from the same lengths compensates (with the positions'
       // height, c was 1e-9 off its distances beside a side of 3.5e-9 on ugly_bumps(14025, 9),
       // and a window carried across that face came out nearer than its parent).
-      lay.cx = exact_chords ? dot(mesh.position(mesh.opposite_vertex(h)) - mesh.position(mesh.origin(h)),
-                                  mesh.position(mesh.target(h)) - mesh.position(mesh.origin(h))) / ab
-                            : (ab * ab + ca * ca - bc * bc) / (2 * ab);
+      if (exact_chords) {
+        const Vec3& a = mesh.position(mesh.origin(h));
+        const Vec3 ac = mesh.position(mesh.opposite_vertex(h)) - a;
+        lay.cx = dot(ac, mesh.position(mesh.target(h)) - a) / ab;
+      } else {
+        lay.cx = (ab * ab + ca * ca - bc * bc) / (2 * ab);
+      }
       lay.cy = std::min(ca, 2 * face_area_[h / 3] / ab);
     } else {
       lay.cx = 0;

@@ -13,11 +13,8 @@ namespace geoprox {
 
 namespace {
 
-std::uint64_t edge_key(std::uint32_t from, std::uint32_t to) {
-  return (static_cast<std::uint64_t>(from) << 32) | to;
-}
 std::uint64_t undirected_key(std::uint32_t a, std::uint32_t b) {
-  return edge_key(std::min(a, b), std::max(a, b));
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
 }
 std::uint32_t corner_origin(const std::vector<Triangle>& faces, std::uint32_t h) {
   return faces[h / 3][h % 3];
@@ -27,11 +24,8 @@ std::uint32_t corner_target(const std::vector<Triangle>& faces, std::uint32_t h)
 }
 
 /// For every halfedge, the other halfedge of its undirected edge when exactly two faces use
-/// that edge and it is not in `cut` (sorted undirected keys), else -1. Edges used by three or
-/// more faces are added to `cut` (they stay cut whatever turns later) and counted in `newly_cut`.
-std::vector<std::int32_t> pair_halfedges(const std::vector<Triangle>& faces,
-                                         std::vector<std::uint64_t>& cut,
-                                         std::size_t* newly_cut) {
+/// that edge, else -1; counts in `crowded` the edges used by three or more faces (cut open).
+std::vector<std::int32_t> pair_halfedges(const std::vector<Triangle>& faces, std::size_t& crowded) {
   const auto nh = static_cast<std::uint32_t>(3 * faces.size());
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(nh);
   for (std::uint32_t h = 0; h < nh; ++h) {
@@ -39,26 +33,17 @@ std::vector<std::int32_t> pair_halfedges(const std::vector<Triangle>& faces,
   }
   std::sort(keyed.begin(), keyed.end());
   std::vector<std::int32_t> partner(nh, -1);
-  std::vector<std::uint64_t> crowded;
   for (std::size_t i = 0; i < keyed.size();) {
     std::size_t j = i + 1;
     while (j < keyed.size() && keyed[j].first == keyed[i].first) ++j;
-    if (j - i == 2 && !std::binary_search(cut.begin(), cut.end(), keyed[i].first)) {
+    if (j - i == 2) {
       partner[keyed[i].second] = static_cast<std::int32_t>(keyed[i + 1].second);
       partner[keyed[i + 1].second] = static_cast<std::int32_t>(keyed[i].second);
     } else if (j - i > 2) {
-      crowded.push_back(keyed[i].first);
+      ++crowded;
     }
     i = j;
   }
-  if (newly_cut) {
-    for (std::uint64_t key : crowded) {
-      if (!std::binary_search(cut.begin(), cut.end(), key)) ++*newly_cut;
-    }
-  }
-  cut.insert(cut.end(), crowded.begin(), crowded.end());
-  std::sort(cut.begin(), cut.end());
-  cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
   return partner;
 }
 
@@ -143,8 +128,7 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
   // 2. and 3. Crowded edges are cut; each sheet (faces joined through edges of two faces) is
   // oriented by a breadth-first search from its lowest face, and cut where the search meets
   // itself the wrong way round.
-  std::vector<std::uint64_t> cut;
-  std::vector<std::int32_t> partner = pair_halfedges(kept, cut, &report.edges_cut);
+  std::vector<std::int32_t> partner = pair_halfedges(kept, report.edges_cut);
   std::vector<std::uint8_t> flip(nf, 0), visited(nf, 0);
   std::vector<std::uint32_t> queue;
   for (std::uint32_t seed = 0; seed < nf; ++seed) {
@@ -166,7 +150,6 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
           queue.push_back(g);
         } else if (flip[g] != wanted_flip) {
           // Non-orientable (or orientation left alone): the two sides part here.
-          cut.push_back(undirected_key(corner_origin(kept, h), corner_target(kept, h)));
           partner[h] = partner[p] = -1;
           ++report.edges_cut;
         } else if (!visited[g]) {
@@ -177,18 +160,29 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
     }
     // Either orientation of a sheet is consistent: keep the one that turns fewer faces (the
     // lowest face may be the one that was wrong).
-    std::size_t turned = 0;
-    for (std::uint32_t f : queue) turned += flip[f];
-    if (2 * turned > queue.size()) {
+    std::size_t turned_faces = 0;
+    for (std::uint32_t f : queue) turned_faces += flip[f];
+    if (2 * turned_faces > queue.size()) {
       for (std::uint32_t f : queue) flip[f] = !flip[f];
     }
   }
-  std::sort(cut.begin(), cut.end());
-  out.flipped.assign(nf, 0);
+  // Turning face (a, b, c) into (a, c, b) reverses its halfedges: a -> b was its halfedge 0
+  // and b -> a is now its halfedge 2, and so on (i becomes 2 - i). Partners follow.
+  const auto turned = [&flip](std::uint32_t h) {
+    return flip[h / 3] ? h - h % 3 + (2 - h % 3) : h;
+  };
+  std::vector<std::int32_t> turned_partner(partner.size(), -1);
+  for (std::uint32_t h = 0; h < partner.size(); ++h) {
+    if (partner[h] >= 0) {
+      const std::uint32_t p = turned(static_cast<std::uint32_t>(partner[h]));
+      turned_partner[turned(h)] = static_cast<std::int32_t>(p);
+    }
+  }
+  partner = std::move(turned_partner);
+  out.flipped = std::move(flip);
   for (std::uint32_t f = 0; f < nf; ++f) {
-    if (flip[f]) {
+    if (out.flipped[f]) {
       std::swap(kept[f][1], kept[f][2]);
-      out.flipped[f] = 1;
       ++report.faces_flipped;
     }
   }
@@ -197,12 +191,11 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
   // vertex with the corner across each of its two edges at that vertex. No directed edge is
   // then used twice: two faces along a cut edge that stay in one fan at an end are that fan's
   // two ends, and a consistently oriented fan runs its end edges in opposite directions.
-  partner = pair_halfedges(kept, cut, nullptr);
   UnionFind fans(3 * static_cast<std::size_t>(nf));
   for (std::uint32_t h = 0; h < 3 * nf; ++h) {
     if (partner[h] < 0) continue;
-    const auto twin = static_cast<std::uint32_t>(partner[h]);
-    fans.unite(h, twin - twin % 3 + (twin % 3 + 1) % 3);  // next(twin) leaves origin(h)
+    // next(partner) leaves origin(h).
+    fans.unite(h, TriangleMesh::next(static_cast<std::uint32_t>(partner[h])));
   }
   std::vector<std::uint32_t> corner_offsets(nv + 1, 0);
   for (const Triangle& t : kept) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <span>
@@ -143,22 +144,19 @@ void run_exact(const ExactArgs& args) {
   write_result(text, args.out, args.out_given);
 }
 
+/// ".obj", ".OFF", ... lower-cased ("" when there is none), as load_mesh reads extensions.
 std::string lower_extension(const std::string& path) {
-  const std::size_t slash = path.find_last_of('/');
-  const std::size_t dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot + 1);
+  std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return ext;
 }
 
-std::string format_repaired_mesh(const RepairedMesh& repaired, const std::string& ext,
-                                 const std::string& source) {
+std::string format_repaired_mesh(const RepairedMesh& repaired, bool obj, const std::string& source) {
   std::string text;
   text.reserve(repaired.positions.size() * 64 + repaired.faces.size() * 24);
   // 1-based in OBJ, 0-based in OFF.
-  const std::uint32_t base = ext == "obj" ? 1 : 0;
-  if (ext == "obj") {
+  const std::uint32_t base = obj ? 1 : 0;
+  if (obj) {
     text += "# geoprox repair of " + source + "\n";
   } else {
     text += "OFF\n";  // no comment: OpenMesh's OFF reader takes none
@@ -166,7 +164,7 @@ std::string format_repaired_mesh(const RepairedMesh& repaired, const std::string
             std::to_string(repaired.faces.size()) + " 0\n";
   }
   for (const Vec3& p : repaired.positions) {
-    if (ext == "obj") text += "v ";
+    if (obj) text += "v ";
     append_number(text, p.x);
     text += ' ';
     append_number(text, p.y);
@@ -175,7 +173,7 @@ std::string format_repaired_mesh(const RepairedMesh& repaired, const std::string
     text += '\n';
   }
   for (const Triangle& t : repaired.faces) {
-    text += ext == "obj" ? "f" : "3";
+    text += obj ? "f" : "3";
     for (std::uint32_t v : t) text += ' ' + std::to_string(v + base);
     text += '\n';
   }
@@ -201,7 +199,7 @@ std::string format_repair_map(const RepairedMesh& repaired, const std::string& s
 
 void run_repair(const RepairArgs& args) {
   const std::string ext = lower_extension(args.out);
-  if (ext != "obj" && ext != "off") {
+  if (ext != ".obj" && ext != ".off") {
     throw InvalidInput("UnsupportedFormat",
                        "--out " + args.out + ": repair writes .obj or .off files");
   }
@@ -235,7 +233,7 @@ void run_repair(const RepairArgs& args) {
   line("output", count(r.vertices_out) + " vertices, " + count(r.faces_out) + " faces, " +
                      count(after.components) + " components, " + count(after.boundary_loops) +
                      " boundary loops");
-  write_file_atomically(args.out, format_repaired_mesh(repaired, ext, args.mesh));
+  write_file_atomically(args.out, format_repaired_mesh(repaired, ext == ".obj", args.mesh));
   if (!args.map.empty()) {
     write_file_atomically(args.map, format_repair_map(repaired, args.mesh, args.out));
   }

@@ -14,15 +14,7 @@ report_has() {
   checks=$((checks + 1))
 }
 
-info() {
-  set +e
-  "$geoprox" info "$1" >"$tmp/report" 2>"$tmp/err"
-  local rc=$?
-  set -e
-  [ "$rc" -eq 0 ] || fail "geoprox info $1: exit $rc: $(cat "$tmp/err")"
-  [ ! -s "$tmp/err" ] || fail "geoprox info $1 wrote to stderr: $(cat "$tmp/err")"
-  [ -s "$tmp/report" ] || fail "geoprox info $1 printed nothing"
-}
+info() { expect_geoprox_ok "$tmp/report" info "$1"; }
 
 require_spot
 info "$spot"

@@ -110,6 +110,20 @@ JSON
   done
 }
 
+# expect_geoprox_ok OUT ARGS...: `geoprox ARGS` exits 0, prints something on stdout (kept in
+# OUT) and nothing on stderr. Counts no check: the caller checks what OUT says.
+expect_geoprox_ok() {
+  local out=$1
+  shift
+  set +e
+  "$geoprox" "$@" >"$out" 2>"$tmp/err"
+  local rc=$?
+  set -e
+  [ "$rc" -eq 0 ] || fail "geoprox $*: exit $rc: $(cat "$tmp/err")"
+  [ ! -s "$tmp/err" ] || fail "geoprox $* wrote to stderr: $(cat "$tmp/err")"
+  [ -s "$out" ] || fail "geoprox $* printed nothing"
+}
+
 # expect_geoprox_error CODE TEXT ARGS...: `geoprox ARGS` exits with CODE and prints exactly one
 # line on stderr, starting 'geoprox: error: ' and containing TEXT (a fixed string); nothing on
 # stdout, and no $tmp/never.out (the output file the failing commands are given). Counts a check.

@@ -13,12 +13,7 @@ data="$root/tests/data"
 repair() {
   local mesh=$1 out=$2
   shift 2
-  set +e
-  "$geoprox" repair "$mesh" -o "$out" "$@" >"$tmp/report" 2>"$tmp/err"
-  local rc=$?
-  set -e
-  [ "$rc" -eq 0 ] || fail "geoprox repair $mesh: exit $rc: $(cat "$tmp/err")"
-  [ ! -s "$tmp/err" ] || fail "geoprox repair $mesh wrote to stderr: $(cat "$tmp/err")"
+  expect_geoprox_ok "$tmp/report" repair "$mesh" -o "$out" "$@"
   [ -s "$out" ] || fail "geoprox repair $mesh wrote no $out"
   pass
 }
@@ -31,7 +26,7 @@ count_is() {
 
 # loads FILE: geoprox info accepts FILE; its report is left in $tmp/info.
 loads() {
-  "$geoprox" info "$1" >"$tmp/info" 2>"$tmp/err" || fail "geoprox info $1: $(cat "$tmp/err")"
+  expect_geoprox_ok "$tmp/info" info "$1"
   pass
 }
 
