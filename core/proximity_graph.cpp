@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -12,6 +13,7 @@
 #include <queue>
 #include <string>
 
+#include "core/covering_radius.h"
 #include "core/errors.h"
 #include "core/exact_geodesic.h"
 #include "core/fast_marching.h"
@@ -140,8 +142,34 @@ GraphSizeForError graph_size_for_error(std::size_t faces, double target_mean_err
 }
 
 double ProximityGraphView::error_bound() const {
-  const double denom = longest_edge - 2 * covering_radius;
-  return denom > 0 ? 2 * covering_radius / denom : std::numeric_limits<double>::infinity();
+  // R is the radius within which every pair of samples is linked: the link radius (every
+  // sample's solve reaches it and links every sample it finds). The longest edge does not
+  // qualify: samples in sparse spots link farther out than others do.
+  const double denom = link_radius - 2 * covering_radius;
+  return link_radius > 0 && denom > 0 ? 2 * covering_radius / denom
+                                      : std::numeric_limits<double>::infinity();
+}
+
+std::string sparse_sampling_warning(const ProximityGraphView& graph,
+                                    const ProximityGraphStats* stats) {
+  if (!(graph.link_radius > 0 && graph.covering_radius > graph.link_radius)) return {};
+  char text[640];
+  if (stats && stats->faces_beyond_link > 0) {
+    std::snprintf(text, sizeof text,
+                  "%zu faces (%.3g%% of the area) hold points with no sample within the link "
+                  "radius %.6g; the farthest, %s, is %.6g from every sample. ",
+                  stats->faces_beyond_link, 100 * stats->area_fraction_beyond_link,
+                  graph.link_radius, stats->largest_empty_disk.to_string().c_str(),
+                  graph.covering_radius);
+  } else {
+    std::snprintf(text, sizeof text,
+                  "some points are up to %.6g from every sample, beyond the link radius %.6g. ",
+                  graph.covering_radius, graph.link_radius);
+  }
+  return std::string(text) +
+         "Faces that long leave gaps between the samples (which are vertices), and answers "
+         "through them can be far off: serve a refined mesh instead "
+         "(scripts/subdivide_mesh.py; docs/meshes.md)";
 }
 
 ProximityGraphView ProximityGraph::view() const {
@@ -212,7 +240,6 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
                                                   const IntrinsicGeometry& geometry,
                                                   std::uint32_t count,
                                                   std::uint32_t eligible, SamplingMethod method,
-                                                  double& covering_radius,
                                                   const BuildProgress& progress) {
   const std::uint32_t nv = static_cast<std::uint32_t>(mesh.num_vertices());
   std::vector<double> field(nv, kInfinity);
@@ -237,7 +264,6 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
     fmm.emplace(mesh, geometry);
   }
   std::vector<std::uint32_t> lowered;
-  covering_radius = kInfinity;
   while (samples.size() < count && !farthest.empty()) {
     const auto [d, v] = farthest.top();
     farthest.pop();
@@ -269,17 +295,15 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
       progress("sampling", static_cast<double>(samples.size()) / count);
     }
   }
-  // The covering radius: the farthest any vertex is from its nearest sample.
-  covering_radius = 0;
-  for (std::uint32_t v = 0; v < nv; ++v) {
-    if (mesh.is_isolated_vertex(v)) continue;
-    if (std::isfinite(field[v])) {
-      covering_radius = std::max(covering_radius, field[v]);
-    } else if (eligible < nv) {
-      throw InvalidInput("BadGraphSize", "vertex " + std::to_string(v) +
-                                             " is in a component with no candidate vertex (ids "
-                                             "below " + std::to_string(eligible) +
-                                             "): no sample can reach it");
+  // Restricted candidates may leave a component without a sample.
+  if (eligible < nv) {
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (!mesh.is_isolated_vertex(v) && !std::isfinite(field[v])) {
+        throw InvalidInput("BadGraphSize", "vertex " + std::to_string(v) +
+                                               " is in a component with no candidate vertex "
+                                               "(ids below " + std::to_string(eligible) +
+                                               "): no sample can reach it");
+      }
     }
   }
   return samples;
@@ -333,9 +357,8 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
                  : SamplingMethod::FastMarching;
   }
   graph.stats.sampling_used = method;
-  double fps_radius = 0;
   graph.sample_vertex =
-      farthest_point_samples(mesh, geometry, num_samples, eligible, method, fps_radius, progress);
+      farthest_point_samples(mesh, geometry, num_samples, eligible, method, progress);
   graph.stats.sampling_seconds = seconds_since(start);
   const auto solves_start = std::chrono::steady_clock::now();
 
@@ -343,9 +366,9 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   // and the link radius is reached, so that the cover table lists, for every vertex, every
   // sample within the link radius (what queries link a vertex to).
   const auto n = static_cast<std::uint32_t>(graph.sample_vertex.size());
+  double area = 0;
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) area += geometry.face_area(f);
   {
-    double area = 0;
-    for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) area += geometry.face_area(f);
     const double link_samples = options.link_samples ? options.link_samples : 2.0 * neighbors;
     graph.link_radius = std::sqrt(link_samples * area / (std::numbers::pi * n));
   }
@@ -357,7 +380,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     sample_of_vertex[graph.sample_vertex[i]] = static_cast<std::int32_t>(i);
   }
   std::vector<std::vector<LocalEdge>> edges_of(n);
-  // (vertex, exact distance); kept in double until the covering radius is known.
+  // (vertex, exact distance), rounded up to float in the cover table.
   std::vector<std::vector<std::pair<std::uint32_t, double>>> covers_of(n);
   std::size_t done = 0;
   const std::vector<std::uint32_t> solve_order = spatial_order(mesh, graph.sample_vertex);
@@ -520,24 +543,25 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
       }
     }
   }
-  // The covering radius from the exact distances of the local solves (in double).
-  std::vector<double> nearest_sample(mesh.num_vertices(), kInfinity);
-  for (std::uint32_t i = 0; i < n; ++i) {
-    for (const auto& [v, d] : covers_of[i]) nearest_sample[v] = std::min(nearest_sample[v], d);
-  }
-  double r = 0;
-  bool all_covered = true;
-  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
-    if (mesh.is_isolated_vertex(v)) continue;
-    if (nearest_sample[v] == kInfinity) {
-      all_covered = false;
-      continue;
-    }
-    r = std::max(r, nearest_sample[v]);
-  }
-  graph.covering_radius = all_covered ? r : std::max(r, fps_radius);
-
   graph.stats.local_solve_seconds = seconds_since(solves_start);
+
+  // Theorem 4.2's r: the farthest any point of the surface is from every sample. Faces longer
+  // than the samples' spacing hold points much farther out than any vertex.
+  const auto covering_start = std::chrono::steady_clock::now();
+  if (progress) progress("covering radius", 0);
+  {
+    ExactGeodesicSolver solver(mesh, geometry);
+    CoveringRadiusOptions covering;
+    covering.beyond = graph.link_radius;
+    const CoveringRadius r = covering_radius(solver, targets, covering);
+    graph.covering_radius = r.radius;
+    graph.stats.vertex_covering_radius = r.vertex_radius;
+    graph.stats.largest_empty_disk = r.farthest;
+    graph.stats.faces_beyond_link = r.faces_beyond;
+    graph.stats.area_fraction_beyond_link = area > 0 ? r.area_beyond / area : 0;
+  }
+  if (progress) progress("covering radius", 1);
+  graph.stats.covering_seconds = seconds_since(covering_start);
   return graph;
 }
 

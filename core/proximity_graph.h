@@ -23,6 +23,7 @@
 
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
+#include "core/surface_point.h"
 
 namespace geoprox {
 
@@ -89,7 +90,11 @@ struct ProximityGraphView {
   std::uint32_t num_samples = 0;
   std::uint32_t neighbors = 0;        ///< m_P it was built with
   double longest_edge = 0;            ///< R: longest graph edge (mesh units)
-  double covering_radius = 0;         ///< r: radius of the largest empty disk (mesh units)
+  /// r: radius of the largest geodesic disk with no sample inside, over every point of the
+  /// surface, faces' insides included (mesh units; an upper bound within 1e-3 of it, see
+  /// core/covering_radius.h). Graph files written before 2026-11-28 hold the largest distance
+  /// from a vertex instead, which faces longer than the samples' spacing leave far below r.
+  double covering_radius = 0;
   /// rho: queries link a point to every sample within this geodesic distance and answer exactly
   /// below it. Chosen so that a disk of radius rho holds m_st samples on average
   /// (pi rho^2 = m_st * area / n_P); every sample's local solve reaches at least rho, so the
@@ -107,19 +112,31 @@ struct ProximityGraphView {
   std::span<const float> cover_distance;
 
   std::size_t num_edges() const { return edge_target.size(); }
-  /// Theorem 4.2's bound on the relative error of graph distances: 2r / (R - 2r) (infinite
-  /// when R <= 2r).
+  /// Theorem 4.2's bound on the relative error of graph distances: 2r / (R - 2r) with R the
+  /// radius within which every pair of samples is linked, the link radius (infinite when
+  /// R <= 2r, or when the link radius is unknown).
   double error_bound() const;
 };
 
 struct ProximityGraphStats {
   double sampling_seconds = 0;
   double local_solve_seconds = 0;
+  double covering_seconds = 0;  ///< measuring r (core/covering_radius.h)
   SamplingMethod sampling_used = SamplingMethod::FastMarching;
   std::size_t components = 0;
+  /// The largest distance from a vertex to its nearest sample; r counts the faces' insides too.
+  double vertex_covering_radius = 0;
+  /// Centre of the largest empty disk: the point found farthest from every sample, r away.
+  SurfacePoint largest_empty_disk;
+  /// Faces holding a point with no sample within the link radius, and the fraction of the
+  /// surface's area they make up: regions of faces longer than the samples' spacing, with no
+  /// vertex (so no sample) inside, which graph paths cross badly (docs/queries.md).
+  std::size_t faces_beyond_link = 0;
+  double area_fraction_beyond_link = 0;
 };
 
-/// Progress of a build: phase name ("sampling", "local solves"), fraction done in [0, 1].
+/// Progress of a build: phase name ("sampling", "local solves", "covering radius"), fraction
+/// done in [0, 1].
 using BuildProgress = std::function<void(const std::string& phase, double fraction)>;
 
 class ProximityGraph {
@@ -147,5 +164,13 @@ class ProximityGraph {
 ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                                      const ProximityGraphOptions& options = {},
                                      const BuildProgress& progress = {});
+
+/// When some point of the surface has no sample within the link radius (r > rho: the paper's
+/// linking finds no sample there, and answers through such regions can be far off), what to
+/// tell whoever built or serves the graph; empty otherwise. With the build's stats (graph
+/// files do not keep them) it also names the faces' count, their share of the area and the
+/// farthest point.
+std::string sparse_sampling_warning(const ProximityGraphView& graph,
+                                    const ProximityGraphStats* stats = nullptr);
 
 }  // namespace geoprox

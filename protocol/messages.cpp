@@ -819,6 +819,7 @@ void to_json(json& out, const MeshInfoResult& result) {
   out["graph_file"] = result.graph_file;
   out["build"] = result.build;
   out["covering_radius"] = optional_json(result.covering_radius);
+  out["link_radius"] = optional_json(result.link_radius);
 }
 
 void to_json(json& out, const ServerInfoResult& result) {

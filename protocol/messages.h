@@ -295,6 +295,8 @@ struct MeshInfoResult {
   std::string graph_file;
   BuildOptions build;                     ///< the parameters the graph was (or is being) built with
   std::optional<double> covering_radius;  ///< the graph's r (its error bound grows with it)
+  /// rho: where queries answer exactly, and the R of the bound 2r / (rho - 2r) (0: unknown)
+  std::optional<double> link_radius;
 };
 
 struct ServerInfoResult {

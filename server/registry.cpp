@@ -336,6 +336,10 @@ void Registry::run_job(const Job& job) {
                 .count();
         spdlog::info("mesh {}: ready, graph {} mapped (version {}, {:.1f} ms)", entry->id(),
                      entry->graph_path().string(), loaded->version(), ms);
+        if (const std::string warning = sparse_sampling_warning(loaded->file().view());
+            !warning.empty()) {
+          spdlog::warn("mesh {}: {}", entry->id(), warning);
+        }
         install(entry, std::move(loaded));
         return;
       } catch (const std::exception& e) {
@@ -365,6 +369,7 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
   options.threads = options_.build_threads;
   set_phase(entry->mutex_, entry->phase_, entry->progress_, "sampling", 0);
   MeshEntry* raw = entry.get();
+  std::string warning;
   {
     ProximityGraph graph = build_proximity_graph(
         data->mesh, data->geometry, options, [raw](const std::string& phase, double fraction) {
@@ -379,6 +384,7 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
     metadata.sampling = build.sampling;
     metadata.source_mesh = entry->mesh_path().filename().string();
     write_graph_file(path.string(), data->mesh, data->geometry, graph, metadata);
+    warning = sparse_sampling_warning(graph.view(), &graph.stats);
   }
   MappedGraphFile file = MappedGraphFile::open(entry->graph_path().string());
   file.verify_mesh(data->mesh, data->geometry);
@@ -390,6 +396,7 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
   spdlog::info("mesh {}: graph built and written to {} in {:.2f} s (version {}, {} samples)",
                entry->id(), entry->graph_path().string(), seconds, loaded->version(),
                loaded->file().counts().samples);
+  if (!warning.empty()) spdlog::warn("mesh {}: {}", entry->id(), warning);
   install(entry, std::move(loaded));
 }
 

@@ -465,6 +465,7 @@ json Service::execute(const protocol::Params& params, RequestContext& context) c
               const GraphFileParams fp = s.loaded->file().params();
               r.graph_edges = s.loaded->file().counts().graph_edges;
               r.covering_radius = s.loaded->file().covering_radius();
+              r.link_radius = s.loaded->file().link_radius();
               r.build.samples = fp.num_samples;
               r.build.neighbors = fp.neighbors;
               r.build.sampling = to_wire(fp.sampling);

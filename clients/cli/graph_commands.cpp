@@ -168,9 +168,10 @@ void run_build(const BuildArgs& args) {
   add("graph edges     %zu (directed, symmetric)\n", view.num_edges());
   add("cover entries   %zu\n", view.cover_sample.size());
   add("R longest edge  %.6g\n", view.longest_edge);
-  add("r covering      %.6g\n", view.covering_radius);
+  add("r covering      %.6g (vertices %.6g; farthest %s)\n", view.covering_radius,
+      graph.stats.vertex_covering_radius, graph.stats.largest_empty_disk.to_string().c_str());
   add("link radius     %.6g\n", view.link_radius);
-  add("bound 2r/(R-2r) %.4g\n", view.error_bound());
+  add("error bound     %.4g (Theorem 4.2: 2r / (rho - 2r))\n", view.error_bound());
   if (for_error) {
     add("predicted error mean %.3g%%, p99 %.3g%% (target %.3g%%; docs/accuracy.md)\n",
         100 * for_error->predicted_mean, 100 * for_error->predicted_p99, 100 * args.target_error);
@@ -178,11 +179,15 @@ void run_build(const BuildArgs& args) {
   add("time load       %.3f s\n", load_seconds);
   add("time sampling   %.3f s\n", graph.stats.sampling_seconds);
   add("time local      %.3f s\n", graph.stats.local_solve_seconds);
+  add("time covering   %.3f s\n", graph.stats.covering_seconds);
   add("time write      %.3f s\n", write_seconds);
   add("time total      %.3f s\n", total);
   add("file            %s (%s)\n", args.out.c_str(),
       human_bytes(static_cast<double>(std::filesystem::file_size(args.out))).c_str());
   write_output(out, "");
+  if (const std::string warning = sparse_sampling_warning(view, &graph.stats); !warning.empty()) {
+    std::fprintf(stderr, "geoprox: warning: %s\n", warning.c_str());
+  }
 }
 
 void run_inspect(const InspectArgs& args) {
@@ -214,7 +219,7 @@ void run_inspect(const InspectArgs& args) {
   add("R longest edge  %.6g\n", file.longest_edge());
   add("r covering      %.6g\n", file.covering_radius());
   add("link radius     %.6g\n", file.link_radius());
-  add("bound 2r/(R-2r) %.4g\n", view.error_bound());
+  add("error bound     %.4g (Theorem 4.2: 2r / (rho - 2r))\n", view.error_bound());
   std::size_t min_degree = SIZE_MAX, max_degree = 0;
   for (std::uint32_t i = 0; i < view.num_samples; ++i) {
     const std::size_t degree = view.edge_offsets[i + 1] - view.edge_offsets[i];
@@ -233,6 +238,9 @@ void run_inspect(const InspectArgs& args) {
         args.metric.empty() ? "" : " under the metric ", args.metric.c_str());
   }
   write_output(out, "");
+  if (const std::string warning = sparse_sampling_warning(view); !warning.empty()) {
+    std::fprintf(stderr, "geoprox: warning: %s\n", warning.c_str());
+  }
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # End-to-end test of `geoprox build` and `geoprox inspect`: a graph file of the shipped sample
-# mesh, its statistics, verification against the right and a wrong mesh, and damaged files.
+# mesh, its statistics, verification against the right and a wrong mesh, damaged files, and the
+# warning for a mesh whose long faces leave points far from every sample.
 # Usage: bash graph_test.sh GEOPROX_BINARY REPO_ROOT
 set -euo pipefail
 # shellcheck source=lib.sh
@@ -18,6 +19,12 @@ cmp -s "$tmp/a.geoprox" "$tmp/b.geoprox" || fail "1 and 2 threads gave different
 grep -q '^samples *200 (m_P 12' "$tmp/build1" || fail "build summary lacks the samples: $(cat "$tmp/build1")"; pass
 [ ! -s "$tmp/err" ] || fail "quiet build wrote to stderr: $(cat "$tmp/err")"; pass
 ls "$tmp" | grep -q tmp && fail "temporary files left behind: $(ls "$tmp")"; pass
+# r over the whole surface, with the vertices' own figure and where the farthest point is; a
+# finite Theorem 4.2 bound on spot.
+grep -q '^r covering *[0-9.e-]* (vertices [0-9.e-]*; farthest [vef]:[0-9]' "$tmp/build1" ||
+  fail "build summary lacks r: $(cat "$tmp/build1")"; pass
+grep -q '^error bound *[0-9.]* (Theorem 4.2' "$tmp/build1" ||
+  fail "no finite error bound on spot: $(cat "$tmp/build1")"; pass
 
 # inspect: header and statistics; --verify against the right mesh.
 "$geoprox" inspect "$tmp/a.geoprox" --verify "$spot" >"$tmp/inspect" 2>"$tmp/err" ||
@@ -55,6 +62,32 @@ expect_error "$tmp/cut.geoprox" Truncated
 expect_error "$tmp/flip.geoprox" 'ChecksumMismatch\|CorruptGraph'
 expect_error "$spot" ForeignFile
 expect_error "$tmp/missing.geoprox" FileNotFound
+
+# A flat 10 x 1 strip: a 10 x 10 grid on [0, 1]^2, then eleven long faces out to x = 10 with
+# no vertex inside (tests/core/test_meshes.h, long_faced_strip). Every vertex becomes a sample,
+# yet the long faces' middles are 4.51 from all of them, beyond the link radius: the build
+# succeeds and warns on stderr, naming the faces and the remedy; inspect warns from r and rho.
+awk 'BEGIN {
+  for (j = 0; j <= 10; ++j) for (i = 0; i <= 10; ++i) printf "v %g %g 0\n", i / 10, j / 10
+  print "v 10 0 0"; print "v 10 1 0"
+  for (j = 0; j < 10; ++j) for (i = 0; i < 10; ++i) {
+    a = j * 11 + i + 1; b = a + 1; c = a + 12; d = a + 11
+    if ((i + j) % 2) { print "f", a, b, d; print "f", b, c, d } else { print "f", a, b, c; print "f", a, c, d }
+  }
+  for (j = 0; j < 10; ++j) print "f", j * 11 + 11, 122, j * 11 + 22
+  print "f", 121, 122, 123
+}' >"$tmp/strip.obj"
+"$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" -q >"$tmp/out" 2>"$tmp/err" ||
+  fail "strip build failed: $(cat "$tmp/err")"
+[ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "strip build: not one warning line: $(cat "$tmp/err")"; pass
+grep -q '^geoprox: warning: 11 faces (90% of the area) hold points with no sample within the link radius' "$tmp/err" ||
+  fail "strip build warning: $(cat "$tmp/err")"; pass
+grep -q 'subdivide_mesh.py' "$tmp/err" || fail "the warning names no remedy: $(cat "$tmp/err")"; pass
+grep -q '^r covering *4.51[0-9]* (vertices 0;' "$tmp/out" || fail "strip r: $(cat "$tmp/out")"; pass
+grep -q '^error bound *inf' "$tmp/out" || fail "strip bound: $(cat "$tmp/out")"; pass
+"$geoprox" inspect "$tmp/strip.geoprox" >"$tmp/out" 2>"$tmp/err" || fail "strip inspect failed"
+grep -q '^geoprox: warning: some points are up to 4.51[0-9]* from every sample, beyond the link radius' "$tmp/err" ||
+  fail "strip inspect warning: $(cat "$tmp/err")"; pass
 
 # A bad option value is a usage error.
 set +e

@@ -11,7 +11,9 @@
 //
 // Tolerances: graph distances are exact geodesic distances, compared to a fresh exact solve to
 // 1e-9 relative; directions are floats, compared with the fresh path's as angles around the
-// sample (intrinsic, 1e-5 rad); cover distances are floats (1e-6 relative); r is exact (1e-9).
+// sample (intrinsic, 1e-5 rad); cover distances are floats (1e-6 relative); r at the vertices is
+// exact (1e-9), r over the faces an upper bound within 1e-3 (core/covering_radius.h, tested
+// there).
 #include "core/geodesic_tracing.h"
 #include "core/proximity_graph.h"
 
@@ -59,6 +61,15 @@ constexpr double kRel = 1e-9;
 /// |got - expected| <= rel * max(|expected|, floor).
 bool close_rel(double got, double expected, double rel, double floor) {
   return std::abs(got - expected) <= rel * std::max(std::abs(expected), floor);
+}
+
+/// r when every vertex of a flat grid of h x h cells split along diagonals is a sample: the
+/// farthest points are the middles of the diagonals, h / sqrt(2) from their ends (r is an upper
+/// bound within 1e-3 of it).
+void expect_grid_of_samples_radius(const ProximityGraph& g, double h) {
+  EXPECT_EQ(g.stats.vertex_covering_radius, 0.0);
+  EXPECT_GE(g.covering_radius, h / std::numbers::sqrt2 * (1 - 1e-12));
+  EXPECT_LE(g.covering_radius, h / std::numbers::sqrt2 * (1 + 1e-3));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -253,8 +264,10 @@ void check_structure(const TestMesh& m, const ProximityGraph& g, const std::stri
         << "sample " << i << " is not connected to the rest of mesh component " << c;
   }
 
-  // The Theorem 4.2 bound.
-  const double denom = g.longest_edge - 2 * g.covering_radius;
+  // r counts the faces' insides: never below the vertices' own distances.
+  EXPECT_GE(g.covering_radius, g.stats.vertex_covering_radius);
+  // The Theorem 4.2 bound, with R the link radius (every pair of samples within it is linked).
+  const double denom = g.link_radius - 2 * g.covering_radius;
   if (denom > 0) {
     EXPECT_DOUBLE_EQ(view.error_bound(), 2 * g.covering_radius / denom);
   } else {
@@ -475,21 +488,22 @@ void check_cover_table(const TestMesh& m, const ProximityGraph& g, const std::st
     }
     r_from_table = std::max(r_from_table, static_cast<double>(best));
   }
-  if (g.longest_edge >= 2 * g.covering_radius) {
-    EXPECT_EQ(uncovered, 0u) << "R = " << fmt(g.longest_edge) << " >= 2r = "
-                             << fmt(2 * g.covering_radius) << " but " << uncovered
-                             << " vertices have no cover";
+  // Every sample's solve reaches the link radius: a vertex that close to a sample is covered.
+  if (g.stats.vertex_covering_radius <= g.link_radius) {
+    EXPECT_EQ(uncovered, 0u) << "every vertex is within rho = " << fmt(g.link_radius)
+                             << " of a sample, but " << uncovered << " vertices have no cover";
   }
   if (uncovered == 0) {
-    // r is the largest distance from a vertex to its nearest covering sample; the table holds
-    // the floats at or just above the exact distances, and that rounding commutes with min and
-    // max.
-    float r_up = static_cast<float>(g.covering_radius);
-    if (static_cast<double>(r_up) < g.covering_radius) {
+    // r at the vertices is the largest distance from a vertex to its nearest covering sample;
+    // the table holds the floats at or just above the exact distances, and that rounding
+    // commutes with min and max.
+    const double r_vertices = g.stats.vertex_covering_radius;
+    float r_up = static_cast<float>(r_vertices);
+    if (static_cast<double>(r_up) < r_vertices) {
       r_up = std::nextafter(r_up, std::numeric_limits<float>::infinity());
     }
     EXPECT_EQ(r_up, static_cast<float>(r_from_table))
-        << fmt(g.covering_radius) << " vs " << fmt(r_from_table);
+        << fmt(r_vertices) << " vs " << fmt(r_from_table);
   }
 
   ExactGeodesicSolver solver(mesh, *m.geometry);
@@ -593,7 +607,7 @@ TEST(ProximityGraph, DefaultsComeFromTable1) {
   const ProximityGraph g = build_proximity_graph(*m.mesh, *m.geometry);
   EXPECT_EQ(g.neighbors, 22u);
   EXPECT_EQ(g.sample_vertex.size(), m.mesh->num_vertices());
-  EXPECT_EQ(g.covering_radius, 0.0);
+  expect_grid_of_samples_radius(g, 0.1);
   check_structure(m, g, "12x12 grid, defaults");
 }
 
@@ -608,10 +622,11 @@ TEST(ProximityGraph, ExactSamplingCoveringRadiusIsExact) {
   ASSERT_EQ(g.sample_vertex.size(), 100u);
   const double r = max_finite(*m.mesh, distance_to_samples(m, g.sample_vertex));
   EXPECT_GT(r, 0);
-  EXPECT_TRUE(close_rel(g.covering_radius, r, kRel, 0))
-      << "covering_radius " << fmt(g.covering_radius) << ", max over vertices of the exact "
+  EXPECT_TRUE(close_rel(g.stats.vertex_covering_radius, r, kRel, 0))
+      << "vertex_covering_radius " << fmt(g.stats.vertex_covering_radius)
+      << ", max over vertices of the exact "
       << "distance to the nearest sample " << fmt(r) << " (relative difference "
-      << std::abs(g.covering_radius - r) / r << "; rounded to float it would be "
+      << std::abs(g.stats.vertex_covering_radius - r) / r << "; rounded to float it would be "
       << fmt(static_cast<float>(r)) << ")";
 }
 
@@ -623,8 +638,9 @@ TEST(ProximityGraph, FastMarchingSamplingCoveringRadiusIsTheExactCoveringDistanc
     SCOPED_TRACE(name);
     EXPECT_EQ(graph->stats.sampling_used, SamplingMethod::FastMarching);
     const double r = max_finite(*mesh->mesh, distance_to_samples(*mesh, graph->sample_vertex));
-    EXPECT_TRUE(close_rel(graph->covering_radius, r, 1e-6, 0))
-        << "covering_radius " << fmt(graph->covering_radius) << ", exact covering distance "
+    EXPECT_TRUE(close_rel(graph->stats.vertex_covering_radius, r, 1e-6, 0))
+        << "vertex_covering_radius " << fmt(graph->stats.vertex_covering_radius)
+        << ", exact covering distance "
         << fmt(r);
   }
 }
@@ -658,8 +674,8 @@ TEST(ProximityGraph, ExactSamplingIsFarthestPointSampling) {
   }
   // r itself to float precision here (ExactSamplingCoveringRadiusIsExact asks for 1e-9).
   const double r = *std::max_element(field.begin(), field.end());
-  EXPECT_TRUE(close_rel(g.covering_radius, r, 1e-6, 0))
-      << fmt(g.covering_radius) << " vs " << fmt(r);
+  EXPECT_TRUE(close_rel(g.stats.vertex_covering_radius, r, 1e-6, 0))
+      << fmt(g.stats.vertex_covering_radius) << " vs " << fmt(r);
   // Samples are at least r apart (each was at least r from all earlier ones).
   EXPECT_GE(previous_pick, r * (1 - kRel));
 }
@@ -694,11 +710,12 @@ TEST(ProximityGraph, FastMarchingSamplingSpreadsEvenly) {
   const TestMesh& m = spot();
   const ProximityGraph& fmm = spot_fmm_graph();
   const ProximityGraph exact = build(m, 150, 4, SamplingMethod::Exact);
-  EXPECT_NEAR(fmm.covering_radius / exact.covering_radius, 1.0, 0.1);
+  // Over the vertices, which is what sampling spreads the samples over.
+  const double r_fmm = fmm.stats.vertex_covering_radius;
+  EXPECT_NEAR(r_fmm / exact.stats.vertex_covering_radius, 1.0, 0.1);
   double shortest = kInfinity;
   for (double d : fmm.edge_distance) shortest = std::min(shortest, d);
-  EXPECT_GT(shortest, 0.8 * fmm.covering_radius)
-      << "two samples at " << fmt(shortest) << " with r = " << fmt(fmm.covering_radius);
+  EXPECT_GT(shortest, 0.8 * r_fmm) << "two samples at " << fmt(shortest) << " with r = " << fmt(r_fmm);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -733,11 +750,38 @@ TEST(ProximityGraph, StructureOnSpot) {
   const ProximityGraph& g = spot_fmm_graph();
   EXPECT_EQ(g.neighbors, 10u);
   EXPECT_EQ(g.sample_vertex.size(), 150u);
-  // Theorem 4.2 needs R > 2r for a finite bound; Table-1-like settings give it.
-  EXPECT_GT(g.longest_edge, 2 * g.covering_radius);
+  // Theorem 4.2 needs rho > 2r for a finite bound; spot's even faces give it.
+  EXPECT_GT(g.link_radius, 2 * g.covering_radius);
   EXPECT_TRUE(std::isfinite(g.view().error_bound()));
-  std::printf("[ info ] spot 150/10: %zu edges, R = %.6g, r = %.6g, bound = %.4g\n",
-              g.edge_target.size(), g.longest_edge, g.covering_radius, g.view().error_bound());
+  // Nowhere farther than rho from a sample: no warning.
+  EXPECT_EQ(g.stats.faces_beyond_link, 0u);
+  EXPECT_EQ(sparse_sampling_warning(g.view(), &g.stats), "");
+  std::printf("[ info ] spot 150/10: %zu edges, R = %.6g, rho = %.6g, r = %.6g (vertices %.6g), "
+              "bound = %.4g\n",
+              g.edge_target.size(), g.longest_edge, g.link_radius, g.covering_radius,
+              g.stats.vertex_covering_radius, g.view().error_bound());
+}
+
+TEST(ProximityGraph, LongFacesLeaveGapsAndAWarning) {
+  // Every vertex is a sample (Table 1 asks for more), and 90% of the strip is eleven long faces
+  // with none inside: their middles are 4.51 from every sample, beyond the link radius.
+  const TestMesh m = make_test_mesh(long_faced_strip());
+  const ProximityGraph g = build_proximity_graph(*m.mesh, *m.geometry);
+  ASSERT_EQ(g.sample_vertex.size(), m.mesh->num_vertices());
+  check_structure(m, g, "long-faced strip");
+  EXPECT_EQ(g.stats.vertex_covering_radius, 0.0);
+  EXPECT_GE(g.covering_radius, 99.25 / 18 - 1);
+  EXPECT_LE(g.covering_radius, (99.25 / 18 - 1) * (1 + 1e-3));
+  ASSERT_LT(g.link_radius, g.covering_radius);
+  EXPECT_TRUE(std::isinf(g.view().error_bound()));
+  EXPECT_EQ(g.stats.faces_beyond_link, 11u);
+  EXPECT_NEAR(g.stats.area_fraction_beyond_link, 0.9, 1e-12);
+  const std::string warning = sparse_sampling_warning(g.view(), &g.stats);
+  EXPECT_NE(warning.find("11 faces (90% of the area)"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("subdivide_mesh.py"), std::string::npos) << warning;
+  // Without the build's stats (a graph file): r and rho alone.
+  const std::string from_file = sparse_sampling_warning(g.view());
+  EXPECT_NE(from_file.find("beyond the link radius"), std::string::npos) << from_file;
 }
 
 TEST(ProximityGraph, StructureOnHoledGrid) {
@@ -869,8 +913,8 @@ TEST(ProximityGraph, TwoComponentsGetAGraphEach) {
       }
     }
     const double r = max_finite(*m.mesh, distance_to_samples(m, g.sample_vertex));
-    EXPECT_TRUE(close_rel(g.covering_radius, r, 1e-6, 0))
-        << what << ": " << fmt(g.covering_radius) << " vs " << fmt(r);
+    EXPECT_TRUE(close_rel(g.stats.vertex_covering_radius, r, 1e-6, 0))
+        << what << ": " << fmt(g.stats.vertex_covering_radius) << " vs " << fmt(r);
   }
 }
 
@@ -887,7 +931,7 @@ TEST(ProximityGraph, IsolatedVerticesAreIgnored) {
   // All usable vertices as samples is allowed; one more is not.
   const ProximityGraph all = build(m, isolated, 4, SamplingMethod::Exact);
   EXPECT_EQ(all.sample_vertex.size(), isolated);
-  EXPECT_EQ(all.covering_radius, 0.0);
+  expect_grid_of_samples_radius(all, 0.1);
   EXPECT_THROW(build(m, isolated + 1, 4, SamplingMethod::Exact), InvalidInput);
 }
 
@@ -937,8 +981,8 @@ TEST(ProximityGraph, CapsAndZeroAreaFaces) {
   check_edges_exact(m, g, /*directions=*/true, "cap grid with zero-area faces");
   check_cover_table(m, g, "cap grid with zero-area faces");
   const double r = max_finite(*m.mesh, distance_to_samples(m, g.sample_vertex));
-  EXPECT_TRUE(close_rel(g.covering_radius, r, 1e-6, 0)) << fmt(g.covering_radius) << " vs "
-                                                        << fmt(r);
+  EXPECT_TRUE(close_rel(g.stats.vertex_covering_radius, r, 1e-6, 0))
+      << fmt(g.stats.vertex_covering_radius) << " vs " << fmt(r);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -957,7 +1001,7 @@ TEST(ProximityGraph, RefusesMoreSamplesThanVertices) {
   const ProximityGraph g = build(m, 25, 30, SamplingMethod::FastMarching);
   EXPECT_EQ(g.sample_vertex.size(), 25u);
   EXPECT_EQ(g.edge_target.size(), 25u * 24u);
-  EXPECT_EQ(g.covering_radius, 0.0);
+  expect_grid_of_samples_radius(g, 0.1);
   check_structure(m, g, "complete graph");
   check_edges_exact(m, g, /*directions=*/false, "complete graph");
 }
@@ -980,11 +1024,13 @@ TEST(ProximityGraph, SamplesOnlyAmongCandidateVertices) {
     check_cover_table(m, g, what);
     // The covering radius is still over every vertex, candidate or not.
     const double r = max_finite(*m.mesh, distance_to_samples(m, g.sample_vertex));
-    EXPECT_TRUE(close_rel(g.covering_radius, r, 1e-6, 0)) << what << ": " << fmt(g.covering_radius)
-                                                          << " vs " << fmt(r);
-    // With every vertex a candidate, samples spread better: a smaller covering radius.
+    EXPECT_TRUE(close_rel(g.stats.vertex_covering_radius, r, 1e-6, 0))
+        << what << ": " << fmt(g.stats.vertex_covering_radius) << " vs " << fmt(r);
+    // With every vertex a candidate, samples spread better over the vertices (what farthest-
+    // point sampling spreads them over): a smaller covering radius there.
     o.candidate_vertices = 0;
-    EXPECT_LT(build_proximity_graph(*m.mesh, *m.geometry, o).covering_radius, g.covering_radius)
+    EXPECT_LT(build_proximity_graph(*m.mesh, *m.geometry, o).stats.vertex_covering_radius,
+              g.stats.vertex_covering_radius)
         << what;
   }
   ProximityGraphOptions too_many;

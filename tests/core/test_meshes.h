@@ -224,6 +224,24 @@ inline MeshData flat_grid(const GridOptions& o) {
   return d;
 }
 
+/// A flat 10 x 1 strip of two parts: a 10 x 10 grid of 0.1 cells on [0, 1]^2, then [1, 10] x
+/// [0, 1] as eleven long faces fanning from the corners (10, 0) and (10, 1) to the grid's right
+/// column. With every vertex a sample, the point farthest from them is (5.5139, 0.5), 4.5139
+/// away (99.25 / 18 - 1: as far from the vertex (1, 0.5) as from (10, 0) and (10, 1)), and 90%
+/// of the area holds no vertex at all.
+inline MeshData long_faced_strip() {
+  const GridOptions grid{.nx = 10, .ny = 10};
+  MeshData d = flat_grid(grid);
+  const auto bottom = static_cast<std::uint32_t>(d.positions.size());
+  d.positions.push_back({10, 0, 0});
+  d.positions.push_back({10, 1, 0});
+  for (int j = 0; j < 10; ++j) {
+    d.faces.push_back({grid_vertex(grid, 10, j), bottom, grid_vertex(grid, 10, j + 1)});
+  }
+  d.faces.push_back({grid_vertex(grid, 10, 10), bottom, bottom + 1});
+  return d;
+}
+
 /// A flat grid whose cells are split into four triangles around a point M near the diagonal
 /// p00-p11: (p00,p10,M), (p10,p11,M), (p00,M,p11), (p00,p11,p01). M is the diagonal's midpoint
 /// pushed towards p10 by `offset` * h (in both axes). offset = 1e-7: (p00,M,p11) is a cap with an

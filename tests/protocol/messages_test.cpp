@@ -627,12 +627,13 @@ TEST(Results, MeshListAndInfo) {
                       "meshes/spot.obj",
                       "graphs/spot.geoprox",
                       BuildOptions{1300, 22, SamplingMethod::Fmm},
-                      0.0472121};
+                      0.070697,
+                      0.248016};
   EXPECT_EQ(json(info), json::parse(R"({"mesh":"spot","mesh_version":"f95506b621abc471",
       "state":"ready","progress":1.0,"phase":null,"vertices":2930,"faces":5856,"samples":1300,
       "error":null,"edges":8784,"graph_edges":30268,"mesh_file":"meshes/spot.obj",
       "graph_file":"graphs/spot.geoprox","build":{"samples":1300,"neighbors":22,
-      "sampling":"fmm"},"covering_radius":0.0472121})"));
+      "sampling":"fmm"},"covering_radius":0.070697,"link_radius":0.248016})"));
   EXPECT_EQ(json(ready)["mesh"], "spot") << "admin.register/rebuild answer a summary with mesh";
 }
 

@@ -1,7 +1,6 @@
 // Access control of the query port (issue 8, section 4): the optional query token (server.auth,
 // per connection, in line order, 5 failures close the connection), its separation from the
 // admin token, and tokens kept out of the logs and the metrics. Real sockets on 127.0.0.1.
-#include <spdlog/sinks/base_sink.h>
 #include <spdlog/spdlog.h>
 
 #include <cstdlib>
@@ -15,26 +14,6 @@ namespace {
 
 constexpr const char* kQueryToken = "q-7f3a9c51e2d84b06";
 constexpr const char* kAdminToken = "a-91bc04d7f2e65a38";
-
-/// Every log line of the process, kept in memory (the default logger while a test runs).
-class CaptureSink final : public spdlog::sinks::base_sink<std::mutex> {
- public:
-  std::string text() {
-    std::lock_guard lock(mutex_);
-    return text_;
-  }
-
- protected:
-  void sink_it_(const spdlog::details::log_msg& msg) override {
-    spdlog::memory_buf_t formatted;
-    formatter_->format(msg, formatted);
-    text_.append(formatted.data(), formatted.size());
-  }
-  void flush_() override {}
-
- private:
-  std::string text_;
-};
 
 std::string request_line(const json& id, const std::string& method,
                          const json& params = json::object()) {

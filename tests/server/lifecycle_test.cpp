@@ -1,12 +1,16 @@
 // The daemon's life: geoproxd as a subprocess (SIGTERM drain, SIGHUP reload with a good and a
 // corrupted graph, --check), background builds (a mesh that fails does not take the others
-// down), admin methods (token, path confinement, register / rebuild / unregister / reload) and
+// down), admin methods (token, path confinement, register / rebuild / unregister / reload; a
+// mesh whose long faces leave gaps between its samples, served with a warning) and
 // the config file.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
+
+#include <cmath>
+#include <sstream>
 
 #include "server/service.h"
 #include "tests/server/server_test_support.h"
@@ -431,6 +435,62 @@ TEST_F(AdminTest, RegisterRebuildReloadUnregister) {
             "UnknownMesh");
   EXPECT_EQ(c.error_reason("admin.unregister", {{"token", "s3cret"}, {"mesh", "spot2"}}),
             "UnknownMesh");
+}
+
+/// The long-faced strip of tests/core/test_meshes.h as an OBJ: a 10 x 10 grid on [0, 1]^2, then
+/// eleven long faces out to x = 10 with no vertex inside.
+std::string long_faced_strip_obj() {
+  std::ostringstream obj;
+  for (int j = 0; j <= 10; ++j) {
+    for (int i = 0; i <= 10; ++i) obj << "v " << i / 10.0 << ' ' << j / 10.0 << " 0\n";
+  }
+  obj << "v 10 0 0\nv 10 1 0\n";
+  for (int j = 0; j < 10; ++j) {
+    for (int i = 0; i < 10; ++i) {
+      const int a = j * 11 + i + 1, b = a + 1, c = a + 12, d = a + 11;
+      if ((i + j) % 2 == 1) {
+        obj << "f " << a << ' ' << b << ' ' << d << "\nf " << b << ' ' << c << ' ' << d << '\n';
+      } else {
+        obj << "f " << a << ' ' << b << ' ' << c << "\nf " << a << ' ' << c << ' ' << d << '\n';
+      }
+    }
+  }
+  for (int j = 0; j < 10; ++j) obj << "f " << j * 11 + 11 << " 122 " << j * 11 + 22 << '\n';
+  obj << "f 121 122 123\n";
+  return obj.str();
+}
+
+TEST_F(AdminTest, AMeshWithGapsBetweenItsSamplesIsServedWithAWarning) {
+  // Every vertex of the strip is a sample, yet the middles of its long faces are 4.51 from all
+  // of them, beyond the link radius: the build's log line says so and names the remedy, and
+  // mesh.info shows r above rho. The mesh is served all the same.
+  write_file(data_.data_dir() / "meshes/strip.obj", long_faced_strip_obj());
+  auto sink = std::make_shared<CaptureSink>();
+  const auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("gaps-test", sink));
+  struct Restore {
+    std::shared_ptr<spdlog::logger> logger;
+    ~Restore() { spdlog::set_default_logger(logger); }
+  } restore{previous};
+  Client c(server_->port());
+  c.result("admin.register",
+           {{"token", "s3cret"}, {"mesh", "strip"}, {"mesh_file", "meshes/strip.obj"}});
+  wait_for_state(server_->port(), "strip", "ready");
+  ASSERT_TRUE(server_->server->registry().wait_idle(60s));
+  const std::string log = sink->text();
+  EXPECT_NE(log.find("mesh strip: 11 faces (90% of the area) hold points with no sample within "
+                     "the link radius"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("subdivide_mesh.py"), std::string::npos) << log;
+  const json info = c.result("mesh.info", {{"mesh", "strip"}});
+  EXPECT_GT(info["covering_radius"].get<double>(), info["link_radius"].get<double>()) << info;
+  EXPECT_NEAR(info["covering_radius"].get<double>(), 99.25 / 18 - 1, 5e-3) << info;
+  // Across the long faces, from the grid's corner (0, 0) to (10, 1): never below the straight
+  // line on this flat strip.
+  const json answer = c.result("geodesic.distance",
+                               {{"mesh", "strip"}, {"source", "v:0"}, {"target", "v:122"}});
+  EXPECT_GE(answer["distance"].get<double>(), std::hypot(10.0, 1.0) * (1 - 1e-12)) << answer;
 }
 
 TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {

@@ -270,6 +270,9 @@ TEST_F(MethodsTest, MeshListAndInfo) {
   EXPECT_EQ(info["mesh_file"], "meshes/spot.obj");
   EXPECT_EQ(info["build"]["samples"], small_spot_params().samples);
   EXPECT_DOUBLE_EQ(info["covering_radius"].get<double>(), reference_->file.covering_radius());
+  EXPECT_DOUBLE_EQ(info["link_radius"].get<double>(), reference_->file.link_radius());
+  EXPECT_GT(info["link_radius"].get<double>(), 2 * info["covering_radius"].get<double>())
+      << "spot's samples leave no gap: Theorem 4.2 bounds its answers";
   EXPECT_EQ(c.error_reason("mesh.info", {{"mesh", "nope"}}), "UnknownMesh");
 }
 

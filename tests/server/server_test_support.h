@@ -1,6 +1,6 @@
 // Helpers of the server tests: a blocking line client over a real TCP socket, temporary
-// directories, a spot.obj graph built once per test binary, and in-process servers on
-// ephemeral ports.
+// directories, a spot.obj graph built once per test binary, in-process servers on ephemeral
+// ports, and a log sink that keeps what it is given.
 #pragma once
 
 #include <arpa/inet.h>
@@ -11,6 +11,8 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/base_sink.h>
+#include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <filesystem>
@@ -282,6 +284,26 @@ struct RunningServer {
   }
   std::uint16_t port() const { return server->port(); }
   std::unique_ptr<Server> server;
+};
+
+/// Every log line of the process, kept in memory (the default logger while a test runs).
+class CaptureSink final : public spdlog::sinks::base_sink<std::mutex> {
+ public:
+  std::string text() {
+    std::lock_guard lock(mutex_);
+    return text_;
+  }
+
+ protected:
+  void sink_it_(const spdlog::details::log_msg& msg) override {
+    spdlog::memory_buf_t formatted;
+    formatter_->format(msg, formatted);
+    text_.append(formatted.data(), formatted.size());
+  }
+  void flush_() override {}
+
+ private:
+  std::string text_;
 };
 
 /// The in-process reference: the same mesh and graph, queried directly.

@@ -403,6 +403,7 @@ class InfoTest(LiveTestCase):
         self.assertEqual(info["build"]["samples"], 400)
         self.assertEqual(info["build"]["neighbors"], 12)
         self.assertGreater(info["covering_radius"], 0.0)
+        self.assertGreater(info["link_radius"], info["covering_radius"])
         self.assertEqual(info["mesh_file"], "meshes/spot.obj")
 
     def test_server_info(self) -> None:
