@@ -553,6 +553,14 @@ void run_eval(const EvalArgs& args) {
   const ErrorStats field_err = error_stats(field_approx, field_reference);
   const ErrorStats field_fmm_err = error_stats(field_fmm_values, field_reference);
   const ProximityGraphView view = g.file.view();
+  // Theorem 4.2 bounds every pair's relative error when it is finite.
+  const double bound = view.error_bound();
+  std::size_t beyond_bound = 0;
+  if (std::isfinite(bound)) {
+    for (std::size_t k = 0; k < approx.size(); ++k) {
+      beyond_bound += std::isfinite(reference[k]) && approx[k] > reference[k] * (1 + bound);
+    }
+  }
 
   std::string text;
   char buf[512];
@@ -570,6 +578,13 @@ void run_eval(const EvalArgs& args) {
   add("distance error  mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
       100 * pair_err.mean, 100 * pair_err.p50, 100 * pair_err.p99, 100 * pair_err.max,
       pair_err.below_exact);
+  if (std::isfinite(bound)) {
+    add("error bound     %.4g (Theorem 4.2: 2r / (rho - 2r)); pairs beyond it: %zu\n", bound,
+        beyond_bound);
+  } else {
+    add("error bound     none (Theorem 4.2 needs rho > 2r; r %.6g, rho %.6g)\n",
+        view.covering_radius, view.link_radius);
+  }
   if (pair_err.worst != SIZE_MAX) {
     add("worst pair      %s  (exact %.9g, graph %.9g, %.2f link radii apart)\n",
         worst_pair.c_str(), reference[worst], approx[worst], reference[worst] / query.link_radius());
@@ -606,6 +621,11 @@ void run_eval(const EvalArgs& args) {
         static_cast<unsigned long long>(args.seed), pair_err.mean, pair_err.p50, pair_err.p99,
         pair_err.max, pair_err.below_exact);
     add("\"worst_pair\":\"%s\",", json_escape(worst_pair).c_str());
+    if (std::isfinite(bound)) {
+      add("\"error_bound\":%.6g,\"beyond_bound\":%zu,", bound, beyond_bound);
+    } else {
+      add("\"error_bound\":null,\"beyond_bound\":0,");
+    }
     add("\"fmm_error\":{\"mean\":%.6g,\"p50\":%.6g,\"p99\":%.6g,\"max\":%.6g},", pair_fmm.mean,
         pair_fmm.p50, pair_fmm.p99, pair_fmm.max);
     add("\"fields\":%zu,\"field_error\":{\"mean\":%.6g,\"p99\":%.6g,\"max\":%.6g,"

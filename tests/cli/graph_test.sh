@@ -63,20 +63,11 @@ expect_error "$tmp/flip.geoprox" 'ChecksumMismatch\|CorruptGraph'
 expect_error "$spot" ForeignFile
 expect_error "$tmp/missing.geoprox" FileNotFound
 
-# A flat 10 x 1 strip: a 10 x 10 grid on [0, 1]^2, then eleven long faces out to x = 10 with
-# no vertex inside (tests/core/test_meshes.h, long_faced_strip). Every vertex becomes a sample,
-# yet the long faces' middles are 4.51 from all of them, beyond the link radius: the build
-# succeeds and warns on stderr, naming the faces and the remedy; inspect warns from r and rho.
-awk 'BEGIN {
-  for (j = 0; j <= 10; ++j) for (i = 0; i <= 10; ++i) printf "v %g %g 0\n", i / 10, j / 10
-  print "v 10 0 0"; print "v 10 1 0"
-  for (j = 0; j < 10; ++j) for (i = 0; i < 10; ++i) {
-    a = j * 11 + i + 1; b = a + 1; c = a + 12; d = a + 11
-    if ((i + j) % 2) { print "f", a, b, d; print "f", b, c, d } else { print "f", a, b, c; print "f", a, c, d }
-  }
-  for (j = 0; j < 10; ++j) print "f", j * 11 + 11, 122, j * 11 + 22
-  print "f", 121, 122, 123
-}' >"$tmp/strip.obj"
+# A flat 10 x 1 strip (write_long_faced_strip_obj): a 10 x 10 grid, then eleven long faces with
+# no vertex inside. Every vertex becomes a sample, yet the long faces' middles are 4.51 from all
+# of them, beyond the link radius: the build succeeds and warns on stderr, naming the faces and
+# the remedy; inspect warns from r and rho.
+write_long_faced_strip_obj "$tmp/strip.obj"
 "$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" -q >"$tmp/out" 2>"$tmp/err" ||
   fail "strip build failed: $(cat "$tmp/err")"
 [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "strip build: not one warning line: $(cat "$tmp/err")"; pass

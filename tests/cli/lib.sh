@@ -47,6 +47,23 @@ require_spot() {
   [ -f "$spot" ] || fail "sample mesh $spot is missing"
 }
 
+# write_long_faced_strip_obj FILE: a flat 10 x 1 strip as OBJ (long_faced_strip of
+# tests/core/test_meshes.h): a 10 x 10 grid of 0.1 cells on [0, 1]^2, then eleven long faces out
+# to x = 10 fanning from (10, 0) and (10, 1), with no vertex inside. With every vertex a sample
+# (what a default build takes) the long faces' middles are 4.5139 from all of them.
+write_long_faced_strip_obj() {
+  awk 'BEGIN {
+    for (j = 0; j <= 10; ++j) for (i = 0; i <= 10; ++i) printf "v %g %g 0\n", i / 10, j / 10
+    print "v 10 0 0"; print "v 10 1 0"
+    for (j = 0; j < 10; ++j) for (i = 0; i < 10; ++i) {
+      a = j * 11 + i + 1; b = a + 1; c = a + 12; d = a + 11
+      if ((i + j) % 2) { print "f", a, b, d; print "f", b, c, d } else { print "f", a, b, c; print "f", a, c, d }
+    }
+    for (j = 0; j < 10; ++j) print "f", j * 11 + 11, 122, j * 11 + 22
+    print "f", 121, 122, 123
+  }' >"$1"
+}
+
 # write_grid_obj N FILE [H [SX SY]]: a flat N x N grid of square cells of side H (default 1) on
 # the plane z = SX x + SY y (default z = 0), as OBJ. Vertex (i, j) is at (i H, j H) and has id
 # j (N+1) + i; cell (i, j) (cell id j N + i) has faces 2c = (a, b, c) and 2c+1 = (a, c, d) with
