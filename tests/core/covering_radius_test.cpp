@@ -178,6 +178,41 @@ TEST(CoveringRadius, SpotAgainstADenseGridOfExactDistances) {
   RecordProperty("evaluations", static_cast<int>(c.evaluations));
 }
 
+TEST(CoveringRadius, UglyMeshesGiveABoundAboveEveryPointSeen) {
+  // Needles, slivers, caps, zero-area faces and coincident vertices (test_meshes.h), flat and
+  // bumpy, with a few vertices as samples: the search ends, never below the distance at any
+  // vertex or face centre, and the point it reports is as far as it says.
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    for (double thinnest : {6.0, 15.0}) {
+      const TestMesh m =
+          make_test_mesh(seed % 2 ? ugly_rectangle(seed, thinnest) : ugly_bumps(seed, thinnest));
+      const TriangleMesh& mesh = *m.mesh;
+      const std::string what = "seed " + std::to_string(seed) + ", thinnest " + fmt(thinnest);
+      std::vector<SurfacePoint> samples;
+      for (std::uint32_t v = static_cast<std::uint32_t>(seed % 5); v < mesh.num_vertices(); v += 17) {
+        if (!mesh.is_isolated_vertex(v)) samples.push_back(SurfacePoint::vertex(v));
+      }
+      ExactGeodesicSolver solver(mesh, *m.geometry);
+      CoveringRadiusOptions options;
+      options.beyond = 0;  // every face with a point off the samples
+      const CoveringRadius c = covering_radius(solver, samples, options);
+      ASSERT_TRUE(std::isfinite(c.radius)) << what;
+      double seen = 0;
+      for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
+        seen = std::max(seen, solver.distance(SurfacePoint::face(f, 1.0 / 3, 1.0 / 3, 1.0 / 3)));
+      }
+      for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+        if (!mesh.is_isolated_vertex(v)) seen = std::max(seen, solver.distance(v));
+      }
+      EXPECT_GE(c.radius, seen) << what;
+      EXPECT_LE(c.radius, c.attained * (1 + kTolerance) * (1 + 1e-12)) << what;
+      EXPECT_EQ(solver.distance(c.farthest), c.attained) << what;
+      EXPECT_GT(c.faces_beyond, 0u) << what;
+      EXPECT_LE(c.faces_beyond, mesh.num_faces()) << what;
+    }
+  }
+}
+
 TEST(CoveringRadius, ComponentWithoutASampleIsInfinitelyFar) {
   GridOptions a{.nx = 3, .ny = 3};
   GridOptions b{.nx = 3, .ny = 3, .x0 = 5};
