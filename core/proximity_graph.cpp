@@ -169,7 +169,7 @@ std::string sparse_sampling_warning(const ProximityGraphView& graph,
   return std::string(text) +
          "Faces that long leave gaps between the samples (which are vertices), and answers "
          "through them can be far off: serve a refined mesh instead "
-         "(scripts/subdivide_mesh.py; docs/meshes.md)";
+         "(geoprox refine MESH -o OUT.obj; docs/meshes.md)";
 }
 
 ProximityGraphView ProximityGraph::view() const {

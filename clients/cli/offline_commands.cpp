@@ -2,13 +2,16 @@
 //   geoprox info MESH
 //   geoprox exact MESH --source POINT... [--radius R] [--to POINT] [--metric FILE] [--out FILE]
 //   geoprox repair MESH --out FILE [--map FILE] [--no-orient]
+//   geoprox refine MESH --out FILE [--max-edge L] [--map FILE]
 #include <CLI/CLI.hpp>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <span>
 #include <string>
@@ -20,7 +23,9 @@
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
 #include "core/mesh_io.h"
+#include "core/mesh_refinement.h"
 #include "core/mesh_repair.h"
+#include "core/proximity_graph.h"
 #include "core/mesh_report.h"
 #include "core/riemannian_metric.h"
 #include "core/surface_point.h"
@@ -30,6 +35,13 @@ namespace {
 
 struct InfoArgs {
   std::string mesh;
+};
+
+struct RefineArgs {
+  std::string mesh;
+  std::string out;          ///< .obj or .off
+  std::string map;          ///< empty: no map written
+  double max_edge = 0;      ///< 0: half the link radius of a default graph of the input
 };
 
 struct RepairArgs {
@@ -151,19 +163,20 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-std::string format_repaired_mesh(const RepairedMesh& repaired, bool obj, const std::string& source) {
+/// The mesh as OBJ (with `comment` as its first line) or OFF, positions at full precision.
+std::string format_mesh(const std::vector<Vec3>& positions, const std::vector<Triangle>& faces,
+                        bool obj, const std::string& comment) {
   std::string text;
-  text.reserve(repaired.positions.size() * 64 + repaired.faces.size() * 24);
+  text.reserve(positions.size() * 64 + faces.size() * 24);
   // 1-based in OBJ, 0-based in OFF.
   const std::uint32_t base = obj ? 1 : 0;
   if (obj) {
-    text += "# geoprox repair of " + source + "\n";
+    text += "# " + comment + "\n";
   } else {
     text += "OFF\n";  // no comment: OpenMesh's OFF reader takes none
-    text += std::to_string(repaired.positions.size()) + ' ' +
-            std::to_string(repaired.faces.size()) + " 0\n";
+    text += std::to_string(positions.size()) + ' ' + std::to_string(faces.size()) + " 0\n";
   }
-  for (const Vec3& p : repaired.positions) {
+  for (const Vec3& p : positions) {
     if (obj) text += "v ";
     append_number(text, p.x);
     text += ' ';
@@ -172,7 +185,7 @@ std::string format_repaired_mesh(const RepairedMesh& repaired, bool obj, const s
     append_number(text, p.z);
     text += '\n';
   }
-  for (const Triangle& t : repaired.faces) {
+  for (const Triangle& t : faces) {
     text += obj ? "f" : "3";
     for (std::uint32_t v : t) text += ' ' + std::to_string(v + base);
     text += '\n';
@@ -197,12 +210,18 @@ std::string format_repair_map(const RepairedMesh& repaired, const std::string& s
   return text;
 }
 
-void run_repair(const RepairArgs& args) {
-  const std::string ext = lower_extension(args.out);
+/// `--out` must name an .obj or .off file; returns whether it is OBJ.
+bool mesh_output_is_obj(const std::string& out, const char* command) {
+  const std::string ext = lower_extension(out);
   if (ext != ".obj" && ext != ".off") {
     throw InvalidInput("UnsupportedFormat",
-                       "--out " + args.out + ": repair writes .obj or .off files");
+                       "--out " + out + ": " + command + " writes .obj or .off files");
   }
+  return ext == ".obj";
+}
+
+void run_repair(const RepairArgs& args) {
+  const bool obj = mesh_output_is_obj(args.out, "repair");
   MeshSoup soup = load_mesh_soup(args.mesh);
   MeshRepairOptions options;
   options.orient = !args.no_orient;
@@ -233,9 +252,113 @@ void run_repair(const RepairArgs& args) {
   line("output", count(r.vertices_out) + " vertices, " + count(r.faces_out) + " faces, " +
                      count(after.components) + " components, " + count(after.boundary_loops) +
                      " boundary loops");
-  write_file_atomically(args.out, format_repaired_mesh(repaired, ext == ".obj", args.mesh));
+  write_file_atomically(args.out, format_mesh(repaired.positions, repaired.faces, obj,
+                                             "geoprox repair of " + args.mesh));
   if (!args.map.empty()) {
     write_file_atomically(args.map, format_repair_map(repaired, args.mesh, args.out));
+  }
+  write_output(text, "");
+}
+
+std::string format_refine_map(const RefinedMesh& refined, const std::string& source,
+                              const std::string& out) {
+  std::string text = "# geoprox refine map: " + source + " -> " + out + "\n";
+  text += "# v NEW POINT: a vertex added at POINT of the input (vertices below " +
+          std::to_string(refined.input_vertices) + " keep their ids)\n";
+  for (std::size_t k = 0; k < refined.new_vertex_source.size(); ++k) {
+    text += "v " + std::to_string(refined.input_vertices + k) + ' ' +
+            refined.new_vertex_source[k].to_string() + '\n';
+  }
+  text += "# f NEW OLD B0 B1 B2: a part of input face OLD, its corners at barycentrics B0, B1, B2\n"
+          "# of OLD (three numbers each); faces not listed are input faces with their ids\n";
+  const std::array<RefinedMesh::Bary, 3> whole{RefinedMesh::Bary{1, 0, 0},
+                                               RefinedMesh::Bary{0, 1, 0},
+                                               RefinedMesh::Bary{0, 0, 1}};
+  for (std::size_t f = 0; f < refined.faces.size(); ++f) {
+    if (f < refined.input_faces && refined.source_bary[f] == whole) continue;
+    text += "f " + std::to_string(f) + ' ' + std::to_string(refined.source_face[f]);
+    for (const RefinedMesh::Bary& b : refined.source_bary[f]) {
+      for (double x : b) {
+        text += ' ';
+        append_number(text, x);
+      }
+    }
+    text += '\n';
+  }
+  return text;
+}
+
+void run_refine(const RefineArgs& args) {
+  const bool obj = mesh_output_is_obj(args.out, "refine");
+  const TriangleMesh input = load_mesh(args.mesh);
+  // By default: half the link radius of a default graph of the result (pi rho^2 = m_st area /
+  // n_P, n_P from Table 1 for its face count and at most its vertices in faces, as
+  // build_proximity_graph takes them). More faces ask for more samples, so shorter edges:
+  // refine the input again with the result's figure until it asks for no shorter ones.
+  auto default_link_radius = [](const TriangleMesh& m) {
+    auto [samples, neighbors] = default_graph_size(m.num_faces());
+    std::uint32_t usable = 0;
+    for (std::uint32_t v = 0; v < m.num_vertices(); ++v) usable += !m.is_isolated_vertex(v);
+    samples = std::min(samples, usable);
+    const IntrinsicGeometry g(m);
+    double area = 0;
+    for (std::uint32_t f = 0; f < m.num_faces(); ++f) area += g.face_area(f);
+    return std::sqrt(2.0 * neighbors * area / (std::numbers::pi * samples));
+  };
+  MeshRefinementOptions options;
+  options.max_edge_length = args.max_edge > 0 ? args.max_edge : default_link_radius(input) / 2;
+  RefinedMesh refined = refine_long_edges(input, options);
+  std::string why;
+  if (args.max_edge == 0) {
+    double rho = 2 * options.max_edge_length;
+    for (int round = 0; round < 8; ++round) {
+      rho = default_link_radius(TriangleMesh(refined.positions, refined.faces));
+      if (rho / 2 >= options.max_edge_length) break;
+      options.max_edge_length = rho / 2;
+      refined = refine_long_edges(input, options);
+    }
+    char buf[96];
+    std::snprintf(buf, sizeof buf, " (half the link radius %.6g of a default graph of the output)",
+                  rho);
+    why = buf;
+  }
+  const double max_edge = options.max_edge_length;
+  std::optional<TriangleMesh> mesh;
+  try {
+    mesh.emplace(refined.positions, refined.faces);
+  } catch (const MeshError& e) {
+    throw InternalError(std::string("the refined mesh does not load: ") + e.what());
+  }
+  std::size_t faces_split = 0;
+  std::vector<std::uint8_t> split(refined.input_faces, 0);
+  for (std::size_t f = refined.input_faces; f < refined.faces.size(); ++f) {
+    split[refined.source_face[f]] = 1;
+  }
+  for (std::uint8_t s : split) faces_split += s;
+  auto longest = [](const TriangleMesh& m) {
+    double l = 0;
+    for (std::uint32_t e = 0; e < m.num_edges(); ++e) {
+      l = std::max(l, norm(m.position(m.edge_origin(e)) - m.position(m.edge_target(e))));
+    }
+    return l;
+  };
+  std::string text;
+  char buf[256];
+  auto add = [&](const char* fmt, auto... values) {
+    std::snprintf(buf, sizeof buf, fmt, values...);
+    text += buf;
+  };
+  add("%24s: %zu vertices, %zu faces, longest edge %.6g\n", "input", input.num_vertices(),
+      input.num_faces(), longest(input));
+  add("%24s: %.6g%s\n", "longest edge allowed", max_edge, why.c_str());
+  add("%24s: %zu of %zu (%zu edges halved in %zu rounds)\n", "faces split", faces_split,
+      input.num_faces(), refined.edges_split, refined.rounds);
+  add("%24s: %zu vertices, %zu faces, longest edge %.6g\n", "output", mesh->num_vertices(),
+      mesh->num_faces(), longest(*mesh));
+  write_file_atomically(args.out, format_mesh(refined.positions, refined.faces, obj,
+                                              "geoprox refine of " + args.mesh));
+  if (!args.map.empty()) {
+    write_file_atomically(args.map, format_refine_map(refined, args.mesh, args.out));
   }
   write_output(text, "");
 }
@@ -304,6 +427,31 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
       "for bit. The counts are printed on standard output.\n\n" +
       exit_code_footer());
   commands.push_back({repair, [repair_args] { run_repair(*repair_args); }});
+
+  auto refine_args = std::make_shared<RefineArgs>();
+  CLI::App* refine = app.add_subcommand(
+      "refine", "Write a copy of a mesh whose long faces are split (the same surface)");
+  refine->add_option("MESH", refine_args->mesh, mesh_help)->required();
+  refine->add_option("-o,--out", refine_args->out, "The refined mesh (.obj or .off), written atomically")
+      ->required();
+  refine
+      ->add_option("--max-edge", refine_args->max_edge,
+                   "Longest edge allowed (mesh units); default: half the link radius of a "
+                   "default graph of MESH")
+      ->check(CLI::PositiveNumber);
+  refine->add_option("--map", refine_args->map,
+                     "Also write where each added vertex lies on MESH, and each split face's "
+                     "parts with their corners' barycentrics");
+  refine->footer(
+      "Longest-edge bisection (docs/meshes.md): every edge longer than the limit is halved,\n"
+      "with the longest side of each face it touches, round after round until none is\n"
+      "longer; faces are split only there and where conformity needs it. New vertices are\n"
+      "midpoints of edges, so the surface is the same. Vertex ids are kept (new ones are\n"
+      "appended), as are the ids of faces not split; a split face's first part keeps its\n"
+      "id, the others are appended. For meshes whose long faces leave points far from every\n"
+      "sample of a graph, which 'geoprox build' warns about.\n\n" +
+      exit_code_footer());
+  commands.push_back({refine, [refine_args] { run_refine(*refine_args); }});
 
 
   commands.push_back({exact, [exact_args, exact] {

@@ -73,7 +73,7 @@ write_long_faced_strip_obj "$tmp/strip.obj"
 [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "strip build: not one warning line: $(cat "$tmp/err")"; pass
 grep -q '^geoprox: warning: 11 faces (90% of the area) hold points with no sample within the link radius' "$tmp/err" ||
   fail "strip build warning: $(cat "$tmp/err")"; pass
-grep -q 'subdivide_mesh.py' "$tmp/err" || fail "the warning names no remedy: $(cat "$tmp/err")"; pass
+grep -q 'geoprox refine MESH' "$tmp/err" || fail "the warning names no remedy: $(cat "$tmp/err")"; pass
 grep -q '^r covering *4.51[0-9]* (vertices 0;' "$tmp/out" || fail "strip r: $(cat "$tmp/out")"; pass
 grep -q '^error bound *inf' "$tmp/out" || fail "strip bound: $(cat "$tmp/out")"; pass
 "$geoprox" inspect "$tmp/strip.geoprox" >"$tmp/out" 2>"$tmp/err" || fail "strip inspect failed"
