@@ -110,6 +110,19 @@ RefinedMesh refine_long_edges(const TriangleMesh& mesh, const MeshRefinementOpti
     ++out.rounds;
     out.edges_split += midpoint_of.size();
 
+    // Two faces over the same three vertices (a closed two-face surface, which loads) would
+    // both draw their inner edges between the same vertices: those faces are split around a
+    // new vertex at their centroid instead, whose edges are theirs alone.
+    // Keyed by a hash of the sorted vertex ids: a collision only fans a face that needed no fan,
+    // which is as valid a split.
+    std::unordered_map<std::uint64_t, std::uint32_t> faces_over;  // vertex set -> faces
+    auto vertex_set = [](Triangle t) {
+      std::sort(t.begin(), t.end());
+      return std::uint64_t{t[0]} * 0x9E3779B97F4A7C15ull ^ (std::uint64_t{t[1]} << 21) ^
+             (std::uint64_t{t[2]} << 42) ^ t[2];
+    };
+    for (const Triangle& t : out.faces) ++faces_over[vertex_set(t)];
+
     // 2. Split every face by its marks, in face order (new ids come out the same every run).
     const std::size_t faces_before = out.faces.size();
     auto vertex_at = [&](std::uint32_t a, std::uint32_t b, std::uint32_t f, const Bary& bary) {
@@ -125,12 +138,47 @@ RefinedMesh refine_long_edges(const TriangleMesh& mesh, const MeshRefinementOpti
       const Triangle t = out.faces[f];
       const int s = longest_side(out.positions, t);
       if (!midpoint_of.count(edge_key(t[s], t[(s + 1) % 3]))) continue;
+      const std::array<Bary, 3> corners = out.source_bary[f];
+      if (faces_over.at(vertex_set(t)) > 1) {
+        // A fan around the centroid: one part per side of the face, or per half of a marked one.
+        std::vector<std::pair<std::uint32_t, Bary>> rim;  // the face's boundary, in its order
+        for (int k = 0; k < 3; ++k) {
+          const int next = (k + 1) % 3;
+          rim.push_back({t[k], corners[k]});
+          if (midpoint_of.count(edge_key(t[k], t[next]))) {
+            const Bary mid = midpoint(corners[k], corners[next]);
+            rim.push_back({vertex_at(t[k], t[next], f, mid), mid});
+          }
+        }
+        Bary centre{};
+        for (int i = 0; i < 3; ++i) {
+          centre[i] = (corners[0][i] + corners[1][i] + corners[2][i]) / 3;
+        }
+        const auto g = static_cast<std::uint32_t>(out.positions.size());
+        out.positions.push_back((1.0 / 3) * (out.positions[t[0]] + out.positions[t[1]] +
+                                             out.positions[t[2]]));
+        out.new_vertex_source.push_back(input_point(mesh, out.source_face[f], centre));
+        for (std::size_t k = 0; k < rim.size(); ++k) {
+          const auto& [u, bu] = rim[k];
+          const auto& [w, bw] = rim[(k + 1) % rim.size()];
+          const Triangle part{u, w, g};
+          const std::array<Bary, 3> part_bary{bu, bw, centre};
+          if (k == 0) {
+            out.faces[f] = part;
+            out.source_bary[f] = part_bary;
+          } else {
+            out.faces.push_back(part);
+            out.source_bary.push_back(part_bary);
+            out.source_face.push_back(out.source_face[f]);
+          }
+        }
+        continue;
+      }
       // a -> b is the longest side, c the corner across it; the face runs a, b, c.
       const std::uint32_t a = t[s], b = t[(s + 1) % 3], c = t[(s + 2) % 3];
-      const std::array<Bary, 3> corner = out.source_bary[f];
-      const Bary& ba = corner[s];
-      const Bary& bb = corner[(s + 1) % 3];
-      const Bary& bc = corner[(s + 2) % 3];
+      const Bary& ba = corners[s];
+      const Bary& bb = corners[(s + 1) % 3];
+      const Bary& bc = corners[(s + 2) % 3];
       const Bary bm = midpoint(ba, bb);
       const std::uint32_t m = vertex_at(a, b, f, bm);
       const bool split_bc = midpoint_of.count(edge_key(b, c)) != 0;

@@ -624,7 +624,7 @@ void run_eval(const EvalArgs& args) {
     if (std::isfinite(bound)) {
       add("\"error_bound\":%.6g,\"beyond_bound\":%zu,", bound, beyond_bound);
     } else {
-      add("\"error_bound\":null,\"beyond_bound\":0,");
+      add("%s", "\"error_bound\":null,\"beyond_bound\":0,");
     }
     add("\"fmm_error\":{\"mean\":%.6g,\"p50\":%.6g,\"p99\":%.6g,\"max\":%.6g},", pair_fmm.mean,
         pair_fmm.p50, pair_fmm.p99, pair_fmm.max);

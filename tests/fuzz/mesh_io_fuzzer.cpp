@@ -1,6 +1,6 @@
 // libFuzzer target: the mesh loaders (core/mesh_io.h) on hostile files, then what `geoprox info`
-// computes from a mesh that loaded (core/mesh_report.h), and what `geoprox repair` makes of the
-// file (core/mesh_repair.h).
+// computes from a mesh that loaded (core/mesh_report.h), what `geoprox refine` makes of it
+// (core/mesh_refinement.h), and what `geoprox repair` makes of the file (core/mesh_repair.h).
 //
 // Input: one selector byte, then the file's bytes. The selector picks the extension, which is
 // what picks the reader: 0 .obj, 1 .off, 2 .ply (ascii or binary, from its header), 3 .stl
@@ -8,8 +8,9 @@
 // from tests/data/ accordingly.
 //
 // Findings: any crash, sanitizer report or hang, any exception other than the documented
-// FileError / MeshError, a loaded mesh that breaks what load_mesh promises, a repaired mesh
-// that does not load, and a repair that changes a mesh that loaded.
+// FileError / MeshError, a loaded mesh that breaks what load_mesh promises, a refined mesh that
+// does not load or keeps an edge over its limit, a repaired mesh that does not load, and a
+// repair that changes a mesh that loaded.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -19,6 +20,7 @@
 #include "core/intrinsic_geometry.h"
 #include "core/mesh.h"
 #include "core/mesh_io.h"
+#include "core/mesh_refinement.h"
 #include "core/mesh_repair.h"
 #include "core/mesh_report.h"
 #include "tests/fuzz/fuzz_support.h"
@@ -38,6 +40,38 @@ void check_loaded_mesh(const geoprox::TriangleMesh& mesh) {
                            t[2] < mesh.num_vertices(),
                        "face ids in range");
     GEOPROX_FUZZ_CHECK(t[0] != t[1] && t[1] != t[2] && t[2] != t[0], "distinct corners");
+  }
+}
+
+// What `geoprox refine` does with a mesh that loaded, to edges of 0.75 mean edge lengths (or
+// refuses: RefinementTooLarge past a few thousand faces): the result loads and keeps no edge
+// longer, nor moves the input's vertices.
+void check_refine(const geoprox::TriangleMesh& mesh, const geoprox::IntrinsicGeometry& geometry) {
+  geoprox::MeshRefinementOptions options;
+  options.max_edge_length = 0.75 * geometry.mean_edge_length();
+  options.max_faces = 4 * mesh.num_faces() + 4000;
+  if (!(std::isfinite(options.max_edge_length) && options.max_edge_length > 0)) return;
+  geoprox::RefinedMesh refined;
+  try {
+    refined = geoprox::refine_long_edges(mesh, options);
+  } catch (const geoprox::InvalidInput&) {
+    return;  // too many faces
+  }
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+    const geoprox::Vec3 &a = refined.positions[v], &b = mesh.position(v);
+    GEOPROX_FUZZ_CHECK(a.x == b.x && a.y == b.y && a.z == b.z, "refine keeps the input's vertices");
+  }
+  for (const geoprox::Triangle& t : refined.faces) {
+    for (int k = 0; k < 3; ++k) {
+      GEOPROX_FUZZ_CHECK(geoprox::norm(refined.positions[t[k]] - refined.positions[t[(k + 1) % 3]]) <=
+                             options.max_edge_length,
+                         "no refined edge over the limit");
+    }
+  }
+  try {
+    check_loaded_mesh(geoprox::TriangleMesh(refined.positions, refined.faces));
+  } catch (const geoprox::MeshError&) {
+    GEOPROX_FUZZ_CHECK(false, "a refined mesh loads");
   }
 }
 
@@ -88,6 +122,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     GEOPROX_FUZZ_CHECK(report.genus_per_component.size() == report.components,
                        "one genus per component");
     GEOPROX_FUZZ_CHECK(!geoprox::format_mesh_report(report).empty(), "a report text");
+    check_refine(mesh, geometry);
   } catch (const geoprox::FileError&) {
   } catch (const geoprox::MeshError&) {
   }
