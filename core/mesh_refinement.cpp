@@ -13,6 +13,8 @@ namespace geoprox {
 namespace {
 
 using Bary = RefinedMesh::Bary;
+// The parts a face is split into, with their corners' barycentrics in the input face.
+using Parts = std::vector<std::pair<Triangle, std::array<Bary, 3>>>;
 
 std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
   return a < b ? (std::uint64_t{a} << 32) | b : (std::uint64_t{b} << 32) | a;
@@ -134,11 +136,45 @@ RefinedMesh refine_long_edges(const TriangleMesh& mesh, const MeshRefinementOpti
       }
       return id;
     };
+    // Splits face f, corners t, across its longest side s (a -> b, with c across it), and again
+    // across b -> c and c -> a where those are marked: 2, 3 or 4 parts, each run the face's way.
+    auto split_across_longest_side = [&](const Triangle& t, int s,
+                                         const std::array<Bary, 3>& corners, std::uint32_t f,
+                                         Parts& parts) {
+      // a -> b is the longest side, c the corner across it; the face runs a, b, c.
+      const std::uint32_t a = t[s], b = t[(s + 1) % 3], c = t[(s + 2) % 3];
+      const Bary& ba = corners[s];
+      const Bary& bb = corners[(s + 1) % 3];
+      const Bary& bc = corners[(s + 2) % 3];
+      const Bary bm = midpoint(ba, bb);
+      const std::uint32_t m = vertex_at(a, b, f, bm);
+      const bool split_bc = midpoint_of.count(edge_key(b, c)) != 0;
+      const bool split_ca = midpoint_of.count(edge_key(c, a)) != 0;
+      // The half on a's side, (a, m, c), split again when c -> a is marked.
+      if (split_ca) {
+        const Bary bp = midpoint(bc, ba);
+        const std::uint32_t p = vertex_at(c, a, f, bp);
+        parts.push_back({{a, m, p}, {ba, bm, bp}});
+        parts.push_back({{p, m, c}, {bp, bm, bc}});
+      } else {
+        parts.push_back({{a, m, c}, {ba, bm, bc}});
+      }
+      // The half on b's side, (m, b, c), split again when b -> c is marked.
+      if (split_bc) {
+        const Bary bn = midpoint(bb, bc);
+        const std::uint32_t n = vertex_at(b, c, f, bn);
+        parts.push_back({{m, b, n}, {bm, bb, bn}});
+        parts.push_back({{m, n, c}, {bm, bn, bc}});
+      } else {
+        parts.push_back({{m, b, c}, {bm, bb, bc}});
+      }
+    };
     for (std::uint32_t f = 0; f < faces_before; ++f) {
       const Triangle t = out.faces[f];
       const int s = longest_side(out.positions, t);
       if (!midpoint_of.count(edge_key(t[s], t[(s + 1) % 3]))) continue;
       const std::array<Bary, 3> corners = out.source_bary[f];
+      Parts parts;  // the first keeps f's id
       if (faces_over.at(vertex_set(t)) > 1) {
         // A fan around the centroid: one part per side of the face, or per half of a marked one.
         std::vector<std::pair<std::uint32_t, Bary>> rim;  // the face's boundary, in its order
@@ -161,46 +197,10 @@ RefinedMesh refine_long_edges(const TriangleMesh& mesh, const MeshRefinementOpti
         for (std::size_t k = 0; k < rim.size(); ++k) {
           const auto& [u, bu] = rim[k];
           const auto& [w, bw] = rim[(k + 1) % rim.size()];
-          const Triangle part{u, w, g};
-          const std::array<Bary, 3> part_bary{bu, bw, centre};
-          if (k == 0) {
-            out.faces[f] = part;
-            out.source_bary[f] = part_bary;
-          } else {
-            out.faces.push_back(part);
-            out.source_bary.push_back(part_bary);
-            out.source_face.push_back(out.source_face[f]);
-          }
+          parts.push_back({{u, w, g}, {bu, bw, centre}});
         }
-        continue;
-      }
-      // a -> b is the longest side, c the corner across it; the face runs a, b, c.
-      const std::uint32_t a = t[s], b = t[(s + 1) % 3], c = t[(s + 2) % 3];
-      const Bary& ba = corners[s];
-      const Bary& bb = corners[(s + 1) % 3];
-      const Bary& bc = corners[(s + 2) % 3];
-      const Bary bm = midpoint(ba, bb);
-      const std::uint32_t m = vertex_at(a, b, f, bm);
-      const bool split_bc = midpoint_of.count(edge_key(b, c)) != 0;
-      const bool split_ca = midpoint_of.count(edge_key(c, a)) != 0;
-      std::vector<std::pair<Triangle, std::array<Bary, 3>>> parts;
-      // The half on a's side, (a, m, c), split again when c -> a is marked.
-      if (split_ca) {
-        const Bary bp = midpoint(bc, ba);
-        const std::uint32_t p = vertex_at(c, a, f, bp);
-        parts.push_back({{a, m, p}, {ba, bm, bp}});
-        parts.push_back({{p, m, c}, {bp, bm, bc}});
       } else {
-        parts.push_back({{a, m, c}, {ba, bm, bc}});
-      }
-      // The half on b's side, (m, b, c), split again when b -> c is marked.
-      if (split_bc) {
-        const Bary bn = midpoint(bb, bc);
-        const std::uint32_t n = vertex_at(b, c, f, bn);
-        parts.push_back({{m, b, n}, {bm, bb, bn}});
-        parts.push_back({{m, n, c}, {bm, bn, bc}});
-      } else {
-        parts.push_back({{m, b, c}, {bm, bb, bc}});
+        split_across_longest_side(t, s, corners, f, parts);
       }
       out.faces[f] = parts[0].first;
       out.source_bary[f] = parts[0].second;
