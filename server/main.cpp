@@ -22,6 +22,7 @@
 #include "core/graph_file.h"
 #include "core/intrinsic_geometry.h"
 #include "core/mesh_io.h"
+#include "core/proximity_graph.h"
 #include "core/riemannian_metric.h"
 #include "server/config.h"
 #include "server/logging.h"
@@ -134,6 +135,11 @@ int run_check(const Config& config) {
         std::printf("graph %s: %s OK (version %s, %llu samples)\n", m.id.c_str(),
                     m.graph_path.string().c_str(), mesh_version_of(file).c_str(),
                     static_cast<unsigned long long>(file.counts().samples));
+        // Served all the same: a warning, not a failure.
+        if (const std::string warning = sparse_sampling_warning(file.view()); !warning.empty()) {
+          std::fprintf(stderr, "geoproxd: check: graph %s: warning: %s\n", m.id.c_str(),
+                       warning.c_str());
+        }
       } catch (const std::exception& e) {
         ++failures;
         std::fprintf(stderr, "geoproxd: check: graph %s: %s: %s (at start it would be rebuilt)\n",

@@ -291,6 +291,15 @@ void set_phase(std::mutex& mutex, std::optional<std::string>& phase, double& pro
   progress = fraction;
 }
 
+// A graph whose samples leave points beyond its link radius is served, with a warning that
+// says where and what to do (the build's stats, when it was just built, say more).
+void warn_if_sparse(const std::string& id, const ProximityGraphView& graph,
+                    const ProximityGraphStats* stats = nullptr) {
+  if (const std::string warning = sparse_sampling_warning(graph, stats); !warning.empty()) {
+    spdlog::warn("mesh {}: {}", id, warning);
+  }
+}
+
 }  // namespace
 
 void Registry::run_job(const Job& job) {
@@ -336,10 +345,7 @@ void Registry::run_job(const Job& job) {
                 .count();
         spdlog::info("mesh {}: ready, graph {} mapped (version {}, {:.1f} ms)", entry->id(),
                      entry->graph_path().string(), loaded->version(), ms);
-        if (const std::string warning = sparse_sampling_warning(loaded->file().view());
-            !warning.empty()) {
-          spdlog::warn("mesh {}: {}", entry->id(), warning);
-        }
+        warn_if_sparse(entry->id(), loaded->file().view());
         install(entry, std::move(loaded));
         return;
       } catch (const std::exception& e) {
@@ -369,7 +375,7 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
   options.threads = options_.build_threads;
   set_phase(entry->mutex_, entry->phase_, entry->progress_, "sampling", 0);
   MeshEntry* raw = entry.get();
-  std::string warning;
+  std::optional<ProximityGraphStats> stats;
   {
     ProximityGraph graph = build_proximity_graph(
         data->mesh, data->geometry, options, [raw](const std::string& phase, double fraction) {
@@ -384,7 +390,7 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
     metadata.sampling = build.sampling;
     metadata.source_mesh = entry->mesh_path().filename().string();
     write_graph_file(path.string(), data->mesh, data->geometry, graph, metadata);
-    warning = sparse_sampling_warning(graph.view(), &graph.stats);
+    stats = graph.stats;
   }
   MappedGraphFile file = MappedGraphFile::open(entry->graph_path().string());
   file.verify_mesh(data->mesh, data->geometry);
@@ -396,7 +402,7 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
   spdlog::info("mesh {}: graph built and written to {} in {:.2f} s (version {}, {} samples)",
                entry->id(), entry->graph_path().string(), seconds, loaded->version(),
                loaded->file().counts().samples);
-  if (!warning.empty()) spdlog::warn("mesh {}: {}", entry->id(), warning);
+  warn_if_sparse(entry->id(), loaded->file().view(), &*stats);
   install(entry, std::move(loaded));
 }
 
@@ -664,6 +670,7 @@ std::vector<protocol::ReloadOutcome> Registry::reload(const std::optional<std::s
                                                       options_.max_scratch_per_mesh,
                                                       options_.run_both);
       const std::string version = fresh->version();
+      const std::shared_ptr<const LoadedMesh> installed = fresh;
       {
         std::lock_guard lock(entry->mutex_);
         if (entry->removed_) continue;
@@ -672,6 +679,7 @@ std::vector<protocol::ReloadOutcome> Registry::reload(const std::optional<std::s
       }
       spdlog::info("mesh {}: reloaded, version {} -> {}", entry->id(), current->version(),
                    version);
+      warn_if_sparse(entry->id(), installed->file().view());
       outcome.reloaded = true;
       outcome.mesh_version = version;
       if (hooks_.on_ready) hooks_.on_ready(entry->id(), version);

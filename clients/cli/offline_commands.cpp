@@ -437,7 +437,7 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
   refine
       ->add_option("--max-edge", refine_args->max_edge,
                    "Longest edge allowed (mesh units); default: half the link radius of a "
-                   "default graph of MESH")
+                   "default graph of the output (Table 1 samples for its face count)")
       ->check(CLI::PositiveNumber);
   refine->add_option("--map", refine_args->map,
                      "Also write where each added vertex lies on MESH, and each split face's "
