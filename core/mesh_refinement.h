@@ -4,9 +4,11 @@
 // with a marked edge has its longest edge marked too, and splits every face by its marked edges,
 // the longest first (into 2, 3 or 4). Both faces of an edge see the same mark, so the result is
 // conforming; bisecting across longest edges keeps the smallest angles bounded away from zero
-// (at worst half the input's: Rosenberg & Stenger 1975). New vertices are midpoints of edges, so
-// the surface is the same: only faces longer than the limit, and the neighbours conformity needs,
-// are split.
+// (for repeated longest-edge bisection, at least half the input's: Rosenberg & Stenger 1975; the
+// tests check that bound face by face). New vertices are midpoints of edges, so the surface is
+// the same: only faces longer than the limit, and the neighbours conformity needs, are split.
+// Two faces over the same three vertices (a closed two-face surface) are fanned around their
+// centroids instead, whatever the angles.
 //
 // What it is for: a proximity graph's samples are vertices, and a region of faces several link
 // radii long holds none, so graph answers through it can be far off (docs/queries.md, "Known
