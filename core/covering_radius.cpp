@@ -100,9 +100,11 @@ class CellSplitter {
 };
 
 // Whether face `cell` holds a point farther than `threshold` from the samples; a face whose
-// farthest point is within `tolerance` (relative) of it may go either way.
-bool holds_point_beyond(Cell face, double threshold, double tolerance, CellSplitter& splitter) {
-  std::vector<Cell> pending{face};
+// farthest point is within `tolerance` (relative) of it may go either way. `pending` is scratch,
+// kept from face to face.
+bool holds_point_beyond(const Cell& face, double threshold, double tolerance,
+                        CellSplitter& splitter, std::vector<Cell>& pending) {
+  pending.assign(1, face);
   bool found = false;
   auto check = [&](const SurfacePoint&, double d) { found = found || d > threshold; };
   while (!pending.empty() && !found) {
@@ -185,9 +187,10 @@ CoveringRadius covering_radius(ExactGeodesicSolver& solver, std::span<const Surf
   result.radius = std::max(result.attained, bound_left);
 
   if (options.beyond < result.radius) {
+    std::vector<Cell> pending;
     for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
       if (holds_point_beyond(splitter.whole_face(f), options.beyond, options.relative_tolerance,
-                             splitter)) {
+                             splitter, pending)) {
         ++result.faces_beyond;
         result.area_beyond += solver.geometry().face_area(f);
       }

@@ -55,6 +55,7 @@ struct RefinedMesh {
 
   /// The same surface point on the refined mesh (a vertex stays a vertex; a point on an input
   /// edge or face goes to the refined face that holds it). `point` must be valid on the input.
+  /// Scans every face: for a few points (a client mapping many reads --map's parts instead).
   SurfacePoint to_refined(const TriangleMesh& input, const SurfacePoint& point) const;
 };
 

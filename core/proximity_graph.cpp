@@ -311,17 +311,26 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
 
 }  // namespace
 
-ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
-                                     const ProximityGraphOptions& options,
-                                     const BuildProgress& progress) {
-  const auto start = std::chrono::steady_clock::now();
+namespace {
+
+// pi rho^2 = m_st * area / n_P, with m_st = 2 m_P unless the options say otherwise.
+double link_radius_of(double area, std::uint32_t samples, std::uint32_t neighbors,
+                      const ProximityGraphOptions& options) {
+  const double link_samples = options.link_samples ? options.link_samples : 2.0 * neighbors;
+  return std::sqrt(link_samples * area / (std::numbers::pi * samples));
+}
+
+}  // namespace
+
+GraphSize resolve_graph_size(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                             const ProximityGraphOptions& options) {
   auto [default_samples, default_neighbors] = default_graph_size(mesh.num_faces());
   // Vertices [0, eligible) may become samples; those in faces are usable.
   const auto nv = static_cast<std::uint32_t>(mesh.num_vertices());
-  const std::uint32_t eligible =
-      options.candidate_vertices > 0 ? std::min(options.candidate_vertices, nv) : nv;
+  GraphSize size;
+  size.eligible = options.candidate_vertices > 0 ? std::min(options.candidate_vertices, nv) : nv;
   std::size_t usable_vertices = 0;
-  for (std::uint32_t v = 0; v < eligible; ++v) {
+  for (std::uint32_t v = 0; v < size.eligible; ++v) {
     usable_vertices += mesh.is_isolated_vertex(v) ? 0 : 1;
   }
   std::uint32_t num_samples = options.num_samples ? options.num_samples : default_samples;
@@ -339,9 +348,22 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     throw InvalidInput("BadGraphSize", "samples and neighbours must be positive");
   }
 
+  size.num_samples = num_samples;
+  size.neighbors = neighbors;
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) size.area += geometry.face_area(f);
+  size.link_radius = link_radius_of(size.area, num_samples, neighbors, options);
+  return size;
+}
+
+ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                                     const ProximityGraphOptions& options,
+                                     const BuildProgress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  const GraphSize size = resolve_graph_size(mesh, geometry, options);
+  const auto nv = static_cast<std::uint32_t>(mesh.num_vertices());
   ProximityGraph graph;
   graph.num_vertices = nv;
-  graph.neighbors = neighbors;
+  graph.neighbors = size.neighbors;
 
   // The validation report gives both the quality that decides when fast marching cannot be
   // trusted and the number of face components.
@@ -358,7 +380,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   }
   graph.stats.sampling_used = method;
   graph.sample_vertex =
-      farthest_point_samples(mesh, geometry, num_samples, eligible, method, progress);
+      farthest_point_samples(mesh, geometry, size.num_samples, size.eligible, method, progress);
   graph.stats.sampling_seconds = seconds_since(start);
   const auto solves_start = std::chrono::steady_clock::now();
 
@@ -366,12 +388,8 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   // and the link radius is reached, so that the cover table lists, for every vertex, every
   // sample within the link radius (what queries link a vertex to).
   const auto n = static_cast<std::uint32_t>(graph.sample_vertex.size());
-  double area = 0;
-  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) area += geometry.face_area(f);
-  {
-    const double link_samples = options.link_samples ? options.link_samples : 2.0 * neighbors;
-    graph.link_radius = std::sqrt(link_samples * area / (std::numbers::pi * n));
-  }
+  // For the samples sampling found (fewer than asked where vertices coincide).
+  graph.link_radius = link_radius_of(size.area, n, size.neighbors, options);
   std::vector<SurfacePoint> targets(n);
   for (std::uint32_t i = 0; i < n; ++i) targets[i] = SurfacePoint::vertex(graph.sample_vertex[i]);
   const GeodesicTargets prepared_targets(geometry, targets);  // shared by the threads' solvers
@@ -396,7 +414,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     to_radius.max_distance = graph.link_radius;
     to_radius.queue_halfedges = true;
     ExactGeodesicOptions to_neighbors;
-    to_neighbors.stop_after_targets = std::min<std::size_t>(neighbors + 1, n);
+    to_neighbors.stop_after_targets = std::min<std::size_t>(size.neighbors + 1, n);
     to_neighbors.min_distance = graph.link_radius;
     to_neighbors.queue_halfedges = true;
     std::vector<std::pair<double, std::uint32_t>> found;  // (distance, sample)
@@ -558,7 +576,7 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     graph.stats.vertex_covering_radius = r.vertex_radius;
     graph.stats.largest_empty_disk = r.farthest;
     graph.stats.faces_beyond_link = r.faces_beyond;
-    graph.stats.area_fraction_beyond_link = area > 0 ? r.area_beyond / area : 0;
+    graph.stats.area_fraction_beyond_link = size.area > 0 ? r.area_beyond / size.area : 0;
   }
   if (progress) progress("covering radius", 1);
   graph.stats.covering_seconds = seconds_since(covering_start);

@@ -61,6 +61,20 @@ struct ProximityGraphOptions {
 /// at its ends: (n_P, m_P) for a mesh of `faces` faces.
 std::pair<std::uint32_t, std::uint32_t> default_graph_size(std::size_t faces);
 
+/// What build_proximity_graph takes for `options` on a mesh, before it samples: n_P and m_P (from
+/// the options, else Table 1), n_P at most the candidate vertices in faces, and the link radius
+/// for n_P samples (pi rho^2 = m_st * area / n_P). Throws InvalidInput as the build does
+/// (TooManySamples, BadGraphSize).
+struct GraphSize {
+  std::uint32_t num_samples = 0;  ///< n_P
+  std::uint32_t neighbors = 0;    ///< m_P
+  std::uint32_t eligible = 0;     ///< vertices [0, eligible) may become samples
+  double area = 0;                ///< of the surface (mesh units squared)
+  double link_radius = 0;         ///< rho for num_samples samples (mesh units)
+};
+GraphSize resolve_graph_size(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                             const ProximityGraphOptions& options = {});
+
 /// Graph size for an accuracy instead of counts (the paper's §4.4 relationship, measured for
 /// this implementation: docs/accuracy.md). The mean relative error of graph distances depends on
 /// m_P (with m_st = 2 m_P) and hardly on n_P once n_P follows Table 1; over 45 runs on three

@@ -291,43 +291,38 @@ std::string format_refine_map(const RefinedMesh& refined, const std::string& sou
 void run_refine(const RefineArgs& args) {
   const bool obj = mesh_output_is_obj(args.out, "refine");
   const TriangleMesh input = load_mesh(args.mesh);
-  // By default: half the link radius of a default graph of the result (pi rho^2 = m_st area /
-  // n_P, n_P from Table 1 for its face count and at most its vertices in faces, as
-  // build_proximity_graph takes them). More faces ask for more samples, so shorter edges:
-  // refine the input again with the result's figure until it asks for no shorter ones.
-  auto default_link_radius = [](const TriangleMesh& m) {
-    auto [samples, neighbors] = default_graph_size(m.num_faces());
-    std::uint32_t usable = 0;
-    for (std::uint32_t v = 0; v < m.num_vertices(); ++v) usable += !m.is_isolated_vertex(v);
-    samples = std::min(samples, usable);
-    const IntrinsicGeometry g(m);
-    double area = 0;
-    for (std::uint32_t f = 0; f < m.num_faces(); ++f) area += g.face_area(f);
-    return std::sqrt(2.0 * neighbors * area / (std::numbers::pi * samples));
+  // The refined mesh must load: anything else is a bug of refine_long_edges, not of the input.
+  std::optional<TriangleMesh> mesh;
+  auto refine = [&](double max_edge) {
+    RefinedMesh refined = refine_long_edges(input, {.max_edge_length = max_edge});
+    try {
+      mesh.emplace(refined.positions, refined.faces);
+    } catch (const MeshError& e) {
+      throw InternalError(std::string("the refined mesh does not load: ") + e.what());
+    }
+    return refined;
   };
-  MeshRefinementOptions options;
-  options.max_edge_length = args.max_edge > 0 ? args.max_edge : default_link_radius(input) / 2;
-  RefinedMesh refined = refine_long_edges(input, options);
+  // By default: half the link radius of a default graph of the output. More faces ask for more
+  // samples (Table 1), so shorter edges: refine the input again with the output's figure until
+  // it asks for no shorter ones.
+  auto default_link_radius = [](const TriangleMesh& m) {
+    return resolve_graph_size(m, IntrinsicGeometry(m)).link_radius;
+  };
+  double max_edge = args.max_edge > 0 ? args.max_edge : default_link_radius(input) / 2;
+  RefinedMesh refined = refine(max_edge);
   std::string why;
   if (args.max_edge == 0) {
-    double rho = 2 * options.max_edge_length;
+    double rho = 2 * max_edge;
     for (int round = 0; round < 8; ++round) {
-      rho = default_link_radius(TriangleMesh(refined.positions, refined.faces));
-      if (rho / 2 >= options.max_edge_length) break;
-      options.max_edge_length = rho / 2;
-      refined = refine_long_edges(input, options);
+      rho = default_link_radius(*mesh);
+      if (rho / 2 >= max_edge) break;
+      max_edge = rho / 2;
+      refined = refine(max_edge);
     }
     char buf[96];
     std::snprintf(buf, sizeof buf, " (half the link radius %.6g of a default graph of the output)",
                   rho);
     why = buf;
-  }
-  const double max_edge = options.max_edge_length;
-  std::optional<TriangleMesh> mesh;
-  try {
-    mesh.emplace(refined.positions, refined.faces);
-  } catch (const MeshError& e) {
-    throw InternalError(std::string("the refined mesh does not load: ") + e.what());
   }
   std::size_t faces_split = 0;
   std::vector<std::uint8_t> split(refined.input_faces, 0);
@@ -361,6 +356,14 @@ void run_refine(const RefineArgs& args) {
     write_file_atomically(args.map, format_refine_map(refined, args.mesh, args.out));
   }
   write_output(text, "");
+}
+
+/// MESH and -o/--out of the commands that write a changed copy of a mesh.
+void add_mesh_copy_options(CLI::App& command, const std::string& mesh_help,
+                           const std::string& what, std::string& mesh, std::string& out) {
+  command.add_option("MESH", mesh, mesh_help)->required();
+  command.add_option("-o,--out", out, "The " + what + " mesh (.obj or .off), written atomically")
+      ->required();
 }
 
 }  // namespace
@@ -409,9 +412,7 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
   auto repair_args = std::make_shared<RepairArgs>();
   CLI::App* repair = app.add_subcommand(
       "repair", "Write a copy of a non-manifold or badly oriented mesh that geoprox loads");
-  repair->add_option("MESH", repair_args->mesh, mesh_help)->required();
-  repair->add_option("-o,--out", repair_args->out, "The repaired mesh (.obj or .off), written atomically")
-      ->required();
+  add_mesh_copy_options(*repair, mesh_help, "repaired", repair_args->mesh, repair_args->out);
   repair->add_option("--map", repair_args->map,
                      "Also write which input vertex each added vertex copies, and each face's "
                      "input id and whether it was turned round");
@@ -431,9 +432,7 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
   auto refine_args = std::make_shared<RefineArgs>();
   CLI::App* refine = app.add_subcommand(
       "refine", "Write a copy of a mesh whose long faces are split (the same surface)");
-  refine->add_option("MESH", refine_args->mesh, mesh_help)->required();
-  refine->add_option("-o,--out", refine_args->out, "The refined mesh (.obj or .off), written atomically")
-      ->required();
+  add_mesh_copy_options(*refine, mesh_help, "refined", refine_args->mesh, refine_args->out);
   refine
       ->add_option("--max-edge", refine_args->max_edge,
                    "Longest edge allowed (mesh units); default: half the link radius of a "

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "server/service.h"
+#include "tests/core/test_meshes.h"
 #include "tests/server/server_test_support.h"
 
 namespace geoprox::server::testing {
@@ -437,26 +438,16 @@ TEST_F(AdminTest, RegisterRebuildReloadUnregister) {
             "UnknownMesh");
 }
 
-/// The long-faced strip of tests/core/test_meshes.h as an OBJ: a 10 x 10 grid on [0, 1]^2, then
-/// eleven long faces out to x = 10 with no vertex inside.
+/// The long-faced strip of tests/core/test_meshes.h (a 10 x 10 grid on [0, 1]^2, then eleven
+/// long faces out to x = 10 with no vertex inside) as an OBJ.
 std::string long_faced_strip_obj() {
+  const test_meshes::MeshData strip = test_meshes::long_faced_strip();
   std::ostringstream obj;
-  for (int j = 0; j <= 10; ++j) {
-    for (int i = 0; i <= 10; ++i) obj << "v " << i / 10.0 << ' ' << j / 10.0 << " 0\n";
+  obj.precision(17);
+  for (const Vec3& p : strip.positions) obj << "v " << p.x << ' ' << p.y << ' ' << p.z << '\n';
+  for (const Triangle& t : strip.faces) {
+    obj << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
   }
-  obj << "v 10 0 0\nv 10 1 0\n";
-  for (int j = 0; j < 10; ++j) {
-    for (int i = 0; i < 10; ++i) {
-      const int a = j * 11 + i + 1, b = a + 1, c = a + 12, d = a + 11;
-      if ((i + j) % 2 == 1) {
-        obj << "f " << a << ' ' << b << ' ' << d << "\nf " << b << ' ' << c << ' ' << d << '\n';
-      } else {
-        obj << "f " << a << ' ' << b << ' ' << c << "\nf " << a << ' ' << c << ' ' << d << '\n';
-      }
-    }
-  }
-  for (int j = 0; j < 10; ++j) obj << "f " << j * 11 + 11 << " 122 " << j * 11 + 22 << '\n';
-  obj << "f 121 122 123\n";
   return obj.str();
 }
 
