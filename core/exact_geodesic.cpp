@@ -226,6 +226,12 @@ void ExactGeodesicSolver::solve(const SurfacePoint& source, const Options& optio
   solve(std::span<const GeodesicSource>(&one, 1), {}, options);
 }
 
+std::size_t ExactGeodesicSolver::vertices_within(double distance) const {
+  std::size_t count = 0;
+  for (const std::uint32_t v : touched_vertices_) count += vertex_distance_[v] <= distance;
+  return count;
+}
+
 void ExactGeodesicSolver::check_solve_input(std::span<const GeodesicSource> sources,
                                             const Options& options) const {
   for (const GeodesicSource& s : sources) {
@@ -288,8 +294,8 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
   // Halfedges collect many waiting windows only when the wavefront is wide (a full solve on
   // horse.ply: 19 per batch; the 36 nearest of 5000 samples on lucy.obj: 3 per pop). Other
   // solves keep one queue entry per window unless asked: solves a few edges wide gain nothing.
-  const bool full_solve =
-      !targets_ && max_distance_ == kInfinity && options.max_windows_propagated == 0;
+  const bool full_solve = !targets_ && max_distance_ == kInfinity &&
+                          options.max_windows_propagated == 0 && options.stop_after_vertices == 0;
   batch_halfedges_ = full_solve || options.queue_halfedges;
   // Sized at the first batched solve.
   if (batch_halfedges_ && halfedge_queued_.empty()) {
@@ -323,6 +329,15 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
         stats_.windows_propagated >= options.max_windows_propagated &&
         top.key >= options.min_distance) {
       radius_reached_ = top.key;  // every later entry starts at least this far out
+      stopped = true;
+      break;
+    }
+    // Counting is a pass over the vertices reached: not at every pop.
+    if (options.stop_after_vertices != 0 && (stats_.queue_pops & 15) == 0 &&
+        touched_vertices_.size() >= options.stop_after_vertices &&
+        top.key >= options.min_distance &&
+        vertices_within(top.key) >= options.stop_after_vertices) {
+      radius_reached_ = top.key;  // no later entry lowers a distance below its key
       stopped = true;
       break;
     }

@@ -104,6 +104,10 @@ struct ExactGeodesicOptions {
   /// every point closer is final. The budget is checked between queue entries: with halfedges
   /// queued (queue_halfedges) the last entry may take it a few windows further.
   std::size_t max_windows_propagated = 0;
+  /// Stop once this many vertices are final (0: no such stop), once past min_distance: the
+  /// nearest this many vertices, whatever the triangles' sizes. Checked every 16 queue pops
+  /// once that many vertices are reached, so the solve may settle a few more.
+  std::size_t stop_after_vertices = 0;
   /// Queue each halfedge's waiting windows as one entry, propagated together (VTP's
   /// organisation), in a solve with a radius or targets too; a full solve always does. It pays
   /// where the wavefront is wide: the graph builder's local solves are 6-9% faster (armadillo,
@@ -326,6 +330,7 @@ class ExactGeodesicSolver {
            const Options& options);
   void reset();
   void touch_face(std::uint32_t face);
+  std::size_t vertices_within(double distance) const;
   void add_source(std::uint32_t index, const GeodesicSource& source);
   void seed_face_point(std::uint32_t source_index, double offset, std::uint32_t face,
                        const std::array<double, 3>& bary);

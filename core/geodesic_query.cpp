@@ -134,6 +134,7 @@ struct QueryScratch::Impl {
   std::uint32_t link_generation = 0;
   std::vector<std::uint32_t> link_stamp;
   std::vector<std::uint32_t> link_slot;
+  std::vector<double> link_distances;  ///< nearest_vertices_radius: settled vertices' distances
   /// Joining two near points' disks: one side's distance at vertex v, valid when
   /// join_stamp[v] == join_generation.
   std::uint32_t join_generation = 0;
@@ -266,8 +267,8 @@ double GeodesicQuery::mean_face_edge(std::uint32_t face) const {
   return edges / 3;
 }
 
-double GeodesicQuery::link_solve_radius(const SurfacePoint& p) const {
-  if (!(options_.link_solve_edges > 0)) return link_radius_;
+GeodesicQuery::LinkSolveRadius GeodesicQuery::link_solve_radius(const SurfacePoint& p) const {
+  if (!(options_.link_solve_edges > 0)) return {link_radius_, link_radius_};
   const auto [face, bary] = p.in_face(*mesh_);
   const Vec2 q = geometry_->face_point(face, bary.data());
   double corners = 0;
@@ -276,8 +277,29 @@ double GeodesicQuery::link_solve_radius(const SurfacePoint& p) const {
     // At least out to the corners, so that some vertex is settled.
     corners = std::max(corners, std::hypot(q.x - c.x, q.y - c.y) * (1 + 1e-9));
   }
-  return std::min(std::max(options_.link_solve_edges * mean_face_edge(face), corners),
-                  link_radius_);
+  corners = std::min(corners, link_radius_);
+  return {std::min(std::max(options_.link_solve_edges * mean_face_edge(face), corners),
+                   link_radius_),
+          corners};
+}
+
+// How far p links through the vertices `solver` settled around it: the distance of the
+// link_solve_vertices-th nearest of those within r.radius (at least r.corners), or r.radius.
+// It depends on p alone: a solve that went farther (out to rho) gives the same radius.
+double GeodesicQuery::nearest_vertices_radius(const ExactGeodesicSolver& solver,
+                                              const LinkSolveRadius& r,
+                                              QueryScratch::Impl& s) const {
+  const std::uint32_t n = options_.link_solve_vertices;
+  if (n == 0) return r.radius;
+  std::vector<double>& near = s.link_distances;
+  near.clear();
+  for (std::uint32_t v : solver.touched_vertices()) {
+    const double d = solver.distance(v);
+    if (d <= r.radius) near.push_back(d);
+  }
+  if (near.size() <= n) return r.radius;
+  std::nth_element(near.begin(), near.begin() + (n - 1), near.end());
+  return std::max(near[n - 1], r.corners);
 }
 
 bool GeodesicQuery::link_through_covers(const ExactGeodesicSolver& solver, double radius,
@@ -376,15 +398,20 @@ double GeodesicQuery::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& 
                                     QueryScratch::Impl& s, Links& out,
                                     bool solved_to_link_radius) const {
   out.region.clear();
-  const double radius = link_solve_radius(p);
-  if (radius < link_radius_ && !graph_.cover_sample.empty()) {
+  const LinkSolveRadius radius = link_solve_radius(p);
+  if (radius.radius < link_radius_ && !graph_.cover_sample.empty()) {
     if (!solved_to_link_radius) {
       ExactGeodesicOptions bounded;
-      bounded.max_distance = radius;
+      bounded.max_distance = radius.radius;
       bounded.interrupt = s.interrupt;
+      // The nearest vertices are all the linking needs (nearest_vertices_radius).
+      bounded.stop_after_vertices = options_.link_solve_vertices;
+      bounded.min_distance = radius.corners;
       solver.solve(p, bounded);
     }
-    if (link_through_covers(solver, radius, s, out)) return link_radius_;
+    if (link_through_covers(solver, nearest_vertices_radius(solver, radius, s), s, out)) {
+      return link_radius_;
+    }
     // No sample within rho through the covers (a sparse spot): link as below.
   }
   out.samples.clear();
@@ -673,13 +700,19 @@ double GeodesicQuery::link_pair(const SurfacePoint& s, const SurfacePoint& t,
 // that radius. Among large triangles (a statue's flat base) a disk of the usual radius holds a
 // handful of vertices, too few to link or join through; there the same work reaches much
 // farther, and p's face being large (its edges longer than the mean) buys it up to three times
-// that work, as such regions border on denser ones.
+// that work, as such regions border on denser ones. A face or edge point's disk also reaches
+// as far as its link solve would without the vertex limit.
 void GeodesicQuery::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
                                const QueryInterrupt* interrupt) const {
   const double scale = sparseness(p, 2);
   ExactGeodesicOptions bounded;
   bounded.min_distance = options_.near_radius * link_radius_;
   bounded.max_distance = 3 * bounded.min_distance;
+  // At least as far as p's link solve would go without its vertex limit
+  // (link_solve_vertices): the wide links then take every path such links would.
+  if (options_.link_solve_vertices > 0 && p.kind != SurfacePoint::Kind::Vertex) {
+    bounded.min_distance = std::max(bounded.min_distance, link_solve_radius(p).radius);
+  }
   bounded.max_windows_propagated =
       static_cast<std::size_t>(scale * static_cast<double>(near_windows_));
   bounded.queue_halfedges = true;

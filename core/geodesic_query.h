@@ -7,10 +7,11 @@
 // graph's link radius rho, chosen at build time so that such a disk holds m_st = 2 m_P samples on
 // average. A vertex takes its links from its row of the cover table, which lists exactly the
 // samples within rho (every sample's build-time solve reached rho). A point inside a face or on
-// an edge is linked through the vertices around it: a small exact solve (three edges) settles
-// them, and each offers its cover row; a link is the best path through one such vertex (see
-// Options::link_solve_edges). Every graph edge, cover entry and link is the length of a real
-// path, so graph answers are upper bounds of the true distance.
+// an edge is linked through the vertices around it: a small exact solve (three edges, at most
+// the nearest 100 vertices) settles them, and each offers its cover row; a link is the best
+// path through one such vertex (see Options::link_solve_edges). Every graph edge, cover entry
+// and link is the length of a real path, so graph answers are upper bounds of the true
+// distance.
 //
 // Near pairs, where the paper's worst errors are (a graph path of few hops bends sharply at the
 // samples it passes), get more work (Options::refine_within): both points are solved exactly
@@ -83,6 +84,15 @@ struct GeodesicQueryOptions {
   /// value reaching rho): links come from a solve out to rho, to the samples within rho,
   /// exactly, as in the paper.
   double link_solve_edges = 3;
+  /// ... and no farther than the nearest this many vertices (still at least to the face's
+  /// corners): where needles reach across small triangles, the mean of one face's edges
+  /// misjudges its neighbourhood (cheese.off: a solve out to three such edges settled 382
+  /// vertices at the median, against 39-47 on the regular meshes of ../shared/meshes, 44-135
+  /// at their 90th percentile). The radius depends on p alone: the same from a solve that
+  /// went farther. A near pair's disk around p still reaches as far as the solve would have
+  /// without the limit, so that its wide links take every path the unlimited links would
+  /// (docs/queries.md has the figures). 0: no limit.
+  std::uint32_t link_solve_vertices = 100;
   /// Pairs whose graph answer is shorter than this many link radii are refined as the file
   /// comment says (near pairs); up to 3 times farther when a point's face has edges more than
   /// 4 times the mesh's mean (by a quarter of that ratio). 0 turns refinement off: then every
@@ -250,7 +260,13 @@ class GeodesicQuery {
   /// or by that solve. Returns as link_by_solve does (rho for a cover row).
   double link_solved(const SurfacePoint& p, ExactGeodesicSolver& solver, QueryScratch::Impl& s,
                      Links& out) const;
-  double link_solve_radius(const SurfacePoint& p) const;
+  struct LinkSolveRadius {
+    double radius;   ///< link_solve_edges of the face's mean edge, at least `corners`, at most rho
+    double corners;  ///< the farthest corner of p's face
+  };
+  LinkSolveRadius link_solve_radius(const SurfacePoint& p) const;
+  double nearest_vertices_radius(const ExactGeodesicSolver& solver, const LinkSolveRadius& r,
+                                 QueryScratch::Impl& s) const;
   double mean_face_edge(std::uint32_t face) const;
   bool link_through_covers(const ExactGeodesicSolver& solver, double radius,
                            QueryScratch::Impl& s, Links& out,

@@ -1901,6 +1901,58 @@ TEST_P(ExactGeodesicRealMesh, WorkBudgetStopsPastMinDistanceWithFinalDistances) 
   EXPECT_TRUE(tally.result());
 }
 
+TEST_P(ExactGeodesicRealMesh, VertexStopSettlesTheNearestVertices) {
+  // stop_after_vertices: the solve stops once that many vertices are final and min_distance is
+  // reached. The nearest that many vertices of the full solve are then final with their
+  // full-solve distances, so is every vertex within radius_reached(), none beyond has one, and
+  // the solve overshoots by at most 16 queue pops' worth of vertices.
+  ExactGeodesicSolver full(mesh(), geometry()), stopped(mesh(), geometry());
+  Rng rng(223);
+  Tally tally(std::string(GetParam().name) + " vertex stop", scale());
+  for (int k = 0; k < count(4, 2); ++k) {
+    const SurfacePoint s = random_face_point(mesh(), rng);
+    full.solve(s);
+    std::vector<double> d = full.vertex_distances();
+    std::vector<double> sorted;
+    for (double x : d) {
+      if (std::isfinite(x)) sorted.push_back(x);
+    }
+    std::sort(sorted.begin(), sorted.end());
+    for (const std::size_t n : {std::size_t{1}, std::size_t{30}, std::size_t{100}}) {
+      if (n > sorted.size()) continue;
+      for (const double min_distance : {0.0, sorted[std::min(sorted.size() - 1, 2 * n)]}) {
+        ExactGeodesicSolver::Options opt;
+        opt.stop_after_vertices = n;
+        opt.min_distance = min_distance;
+        stopped.solve(s, opt);
+        const double r = stopped.radius_reached();
+        const std::string ctx = "from " + s.to_string() + ", " + std::to_string(n) +
+                                " vertices, min " + fmt(min_distance) + ", reached " + fmt(r);
+        if (!(r >= sorted[n - 1] * (1 - 1e-12)) || !(r >= min_distance)) {
+          tally.fail(ctx + ": stopped before the " + std::to_string(n) + "th vertex at " +
+                     fmt(sorted[n - 1]));
+        }
+        std::size_t final_vertices = 0;
+        for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
+          const double got = stopped.distance(v);
+          if (d[v] < r) {
+            ++final_vertices;
+            tally.check(got, d[v], ctx + ": vertex " + std::to_string(v));
+          } else if (d[v] > r && got != kInfinity) {
+            tally.fail(ctx + ": vertex " + std::to_string(v) + " beyond reported as " + fmt(got));
+          }
+        }
+        if (min_distance == 0 && stopped.stats().vertices_reached > n + 64) {
+          tally.fail(ctx + ": " + std::to_string(stopped.stats().vertices_reached) +
+                     " vertices final, far more than asked for");
+        }
+        if (final_vertices + 1 < n) tally.fail(ctx + ": only " + std::to_string(final_vertices));
+      }
+    }
+  }
+  EXPECT_TRUE(tally.result());
+}
+
 TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
   ExactGeodesicSolver full(mesh(), geometry()), local(mesh(), geometry());
   Rng rng(113);

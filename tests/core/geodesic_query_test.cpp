@@ -434,6 +434,53 @@ TEST(GeodesicQuery, LinksThroughVerticesAgreeWithExactLinks) {
   RecordProperty("mean_error_exact_links", fmt(sum_slow / graph_answers));
 }
 
+TEST(GeodesicQuery, LinkSolvesStopAtTheNearestVertices) {
+  // link_solve_vertices caps a link solve at the nearest so many vertices (on spot the default
+  // rarely binds; 12 binds almost everywhere). The radius depends on the point alone, whether
+  // its solve stopped there or went on to rho (a pair closer than rho, a field's source):
+  // answers stay symmetric and fields equal point-to-point queries. Links through fewer
+  // vertices are upper bounds, a little longer than through the full three-edge disk.
+  const QueryEnv& env = spot_env();
+  GeodesicQueryOptions capped_options, uncapped_options;
+  capped_options.refine_within = uncapped_options.refine_within = 0;
+  capped_options.link_solve_vertices = 12;
+  uncapped_options.link_solve_vertices = 0;
+  const GeodesicQuery capped(env.mesh, env.geometry, env.graph.view(), capped_options);
+  const GeodesicQuery uncapped(env.mesh, env.geometry, env.graph.view(), uncapped_options);
+  QueryScratch scratch = capped.make_scratch();
+  QueryScratch uncapped_scratch = uncapped.make_scratch();
+  const double edge = env.geometry.mean_edge_length();
+  int graph_answers = 0, longer = 0;
+  for (std::size_t k = 0; k < spot_pairs().size(); ++k) {
+    const ExactPair& p = spot_pairs()[k];
+    const DistanceResult st = capped.distance(p.s, p.t, scratch);
+    const DistanceResult ts = capped.distance(p.t, p.s, scratch);
+    const DistanceResult full = uncapped.distance(p.s, p.t, uncapped_scratch);
+    const std::string what = pair_name(p.s, p.t) + ": capped " + fmt(st.distance) + " / " +
+                             fmt(ts.distance) + ", uncapped " + fmt(full.distance) +
+                             ", exact " + fmt(p.exact);
+    EXPECT_TRUE(close_rel(st.distance, ts.distance, kTight)) << what;
+    EXPECT_GE(st.distance, p.exact * (1 - kBelowExact)) << what;
+    if (st.exact) continue;
+    ++graph_answers;
+    EXPECT_LE(st.distance, full.distance + 2 * edge) << what;
+    if (st.distance > full.distance * (1 + kTight)) ++longer;
+  }
+  EXPECT_GT(graph_answers, 500);
+  EXPECT_GT(longer, graph_answers / 10);  // the cap really binds
+  const SurfacePoint source = SurfacePoint::face(1234, 0.2, 0.5, 0.3);
+  const DistanceField field = capped.field(std::span(&source, 1), scratch);
+  int mismatches = 0;
+  for (std::uint32_t v = 0; v < env.mesh.num_vertices(); v += 3) {
+    const double p2p = capped.distance(source, SurfacePoint::vertex(v), scratch).distance;
+    if (!close_rel(field.distances[v], p2p, kTight) && ++mismatches <= 5) {
+      ADD_FAILURE() << "v:" << v << ": field " << fmt(field.distances[v]) << ", distance() "
+                    << fmt(p2p);
+    }
+  }
+  EXPECT_EQ(mismatches, 0);
+}
+
 TEST(GeodesicQuery, NearPairsAreRefined) {
   // Pairs whose graph answer is under refine_within rho get two exact disks: never worse than
   // the paper's answer, still an upper bound, joined through a vertex or a point on an edge
