@@ -1741,7 +1741,7 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
     const SurfacePoint s = k == 0 ? SurfacePoint::vertex(rng.below(static_cast<std::uint32_t>(mesh().num_vertices())))
                                   : random_face_point(mesh(), rng);
     full.solve(s);
-    std::vector<double> d = full.vertex_distances();
+    const std::vector<double> d = full.vertex_distances();
     std::vector<double> sorted;
     for (double x : d) {
       if (std::isfinite(x)) sorted.push_back(x);
@@ -1905,9 +1905,9 @@ TEST_P(ExactGeodesicRealMesh, VertexStopSettlesTheNearestVertices) {
   // stop_after_vertices: the solve stops once that many vertices are final and min_distance is
   // reached. The nearest that many vertices of the full solve are then final with their
   // full-solve distances, so is every vertex within radius_reached(), none beyond has one, and
-  // the solve overshoots by at most 16 queue pops' worth of vertices.
+  // (checked every 16 queue pops) the solve settles few more vertices than asked for.
   ExactGeodesicSolver full(mesh(), geometry()), stopped(mesh(), geometry());
-  Rng rng(223);
+  Rng rng(227);
   Tally tally(std::string(GetParam().name) + " vertex stop", scale());
   for (int k = 0; k < count(4, 2); ++k) {
     const SurfacePoint s = random_face_point(mesh(), rng);
