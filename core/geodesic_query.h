@@ -87,7 +87,7 @@ struct GeodesicQueryOptions {
   /// ... and no farther than the nearest this many vertices (still at least to the face's
   /// corners): where needles reach across small triangles, the mean of one face's edges
   /// misjudges its neighbourhood (cheese.off: a solve out to three such edges settled 382
-  /// vertices at the median, against 39-47 on the regular meshes of ../shared/meshes, 44-135
+  /// vertices at the median, against 39-61 on the regular meshes of ../shared/meshes, 44-135
   /// at their 90th percentile). The radius depends on p alone: the same from a solve that
   /// went farther. A near pair's disk around p still reaches as far as the solve would have
   /// without the limit, so that its wide links take every path the unlimited links would
