@@ -709,8 +709,10 @@ void GeodesicQuery::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solve
   bounded.min_distance = options_.near_radius * link_radius_;
   bounded.max_distance = 3 * bounded.min_distance;
   // At least as far as p's link solve would go without its vertex limit
-  // (link_solve_vertices): the wide links then take every path such links would.
-  if (options_.link_solve_vertices > 0 && p.kind != SurfacePoint::Kind::Vertex) {
+  // (link_solve_vertices): the wide links then take every path such links would. Only where
+  // that limit applies: not to vertices (cover rows), nor to exact links (link_solve_edges 0).
+  if (options_.link_solve_vertices > 0 && options_.link_solve_edges > 0 &&
+      p.kind != SurfacePoint::Kind::Vertex) {
     bounded.min_distance = std::max(bounded.min_distance, link_solve_radius(p).radius);
   }
   bounded.max_windows_propagated =

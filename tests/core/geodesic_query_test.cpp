@@ -481,6 +481,24 @@ TEST(GeodesicQuery, LinkSolvesStopAtTheNearestVertices) {
   EXPECT_EQ(mismatches, 0);
 }
 
+TEST(GeodesicQuery, VertexLimitIsInertForExactLinks) {
+  // link_solve_edges = 0 links by a solve out to rho, exactly: no link solve to limit, so
+  // link_solve_vertices changes nothing, near pairs' disks included.
+  const QueryEnv& env = spot_env();
+  GeodesicQueryOptions limited, unlimited;
+  limited.link_solve_edges = unlimited.link_solve_edges = 0;
+  unlimited.link_solve_vertices = 0;
+  const GeodesicQuery a(env.mesh, env.geometry, env.graph.view(), limited);
+  const GeodesicQuery b(env.mesh, env.geometry, env.graph.view(), unlimited);
+  QueryScratch sa = a.make_scratch(), sb = b.make_scratch();
+  for (std::size_t k = 0; k < spot_pairs().size(); k += 4) {
+    const ExactPair& p = spot_pairs()[k];
+    const double da = a.distance(p.s, p.t, sa).distance, db = b.distance(p.s, p.t, sb).distance;
+    EXPECT_TRUE(same_bits(da, db)) << pair_name(p.s, p.t) << ": " << fmt(da) << " with the "
+                                   << "limit, " << fmt(db) << " without";
+  }
+}
+
 TEST(GeodesicQuery, NearPairsAreRefined) {
   // Pairs whose graph answer is under refine_within rho get two exact disks: never worse than
   // the paper's answer, still an upper bound, joined through a vertex or a point on an edge
