@@ -1,13 +1,14 @@
 // Benchmark of point-to-point queries by how far apart the points are (docs/queries.md, "The
 // exact solves of a query"). Not a test: it only measures.
 //
-//   query_band_bench MESH GRAPH [--pairs N] [--seed X] [--exact-bands]
+//   query_band_bench MESH GRAPH [--pairs N] [--seed X] [--exact-within X] [--exact-bands]
 //
 // GRAPH is a graph file built for MESH (geoprox build). For each band of geodesic distance (0 to
 // rho/2, rho/2 to rho, rho to 2 rho; rho the graph's link radius), N pairs (default 400): s a
 // random face point (uniform over faces), t a random vertex whose exact distance from s lies in
 // the band. Reports the median, p90 and p99 time of GeodesicQuery::distance and ::path on one
-// thread, and how many answers were exact. With --exact-bands, then for the bands rho/2 to rho,
+// thread, and how many answers were exact (--exact-within: GeodesicQueryOptions::exact_within,
+// 0 for the graph's answers below 2 rho). With --exact-bands, then for the bands rho/2 to rho,
 // rho to 2 rho, 4 to 5 rho and 10 to 12 rho (N / 4 pairs each): GeodesicQuery::exact_distance
 // (bounded by the graph's answer and goal-directed, as the daemon's "exact": true) against a
 // plain exact solve stopped once t is settled; median times and windows created.
@@ -34,6 +35,7 @@ struct Settings {
   std::size_t pairs = 400;
   std::uint64_t seed = 5;
   bool exact_bands = false;
+  double exact_within = GeodesicQueryOptions{}.exact_within;
 };
 
 /// Pairs whose exact distance lies in [lo, hi]: s a random face point, t a random vertex of the
@@ -73,7 +75,8 @@ std::vector<std::pair<SurfacePoint, SurfacePoint>> band_pairs(const TriangleMesh
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
-                 "usage: query_band_bench MESH GRAPH [--pairs N] [--seed X] [--exact-bands]\n");
+                 "usage: query_band_bench MESH GRAPH [--pairs N] [--seed X] [--exact-within X] "
+                 "[--exact-bands]\n");
     return 1;
   }
   Settings settings;
@@ -85,6 +88,8 @@ int main(int argc, char** argv) {
       settings.pairs = std::strtoull(argv[++i], nullptr, 10);
     } else if (flag == "--seed" && i + 1 < argc) {
       settings.seed = std::strtoull(argv[++i], nullptr, 10);
+    } else if (flag == "--exact-within" && i + 1 < argc) {
+      settings.exact_within = std::strtod(argv[++i], nullptr);
     } else {
       std::fprintf(stderr, "query_band_bench: unknown option %s\n", argv[i]);
       return 1;
@@ -95,7 +100,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   try {
-    const LoadedGraph loaded(argv[1], argv[2]);
+    GeodesicQueryOptions query_options;
+    query_options.exact_within = settings.exact_within;
+    const LoadedGraph loaded(argv[1], argv[2], {}, query_options);
     const TriangleMesh& mesh = loaded.mesh;
     const IntrinsicGeometry& geometry = loaded.geometry;
     const GeodesicQuery& query = *loaded.query;

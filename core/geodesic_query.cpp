@@ -925,8 +925,29 @@ PairAnswer GeodesicQuery::answer(const SurfacePoint& s, const SurfacePoint& t,
   w.target_position = t.position(*mesh_);
   a.distance = search(w, w.links_s, w.links_t, kInfinity, a.meet, a.settled);
   // Decided by the graph's answer, an upper bound of the distance (and symmetric).
+  if (const double exact = solve_exactly(s, t, a.distance, w.solver_s, w.interrupt);
+      exact < kInfinity) {
+    a.distance = exact;
+    a.from = PairAnswer::From::SolveS;
+    return a;
+  }
   if (refines(s, t, a.distance)) return answer_near(s, t, w);
   return a;
+}
+
+// A pair whose graph answer is under exact_within rho, under the mesh's own lengths: the
+// exact distance from one solve bounded by that answer (never below the distance: a real
+// path) and directed at t, an ellipse around the geodesic. kInfinity for other pairs, or should
+// the solve not reach t (it always does: the bound is a path's length, plus rounding's share).
+double GeodesicQuery::solve_exactly(const SurfacePoint& s, const SurfacePoint& t,
+                                    double graph_distance, ExactGeodesicSolver& solver,
+                                    const QueryInterrupt* interrupt) const {
+  if (!(options_.exact_within > 0 && geometry_->lengths_are_chords() &&
+        graph_distance < options_.exact_within * link_radius_)) {
+    return kInfinity;
+  }
+  solve_towards(s, t, graph_distance * (1 + 1e-9), solver, interrupt);
+  return solver.settled_targets().empty() ? kInfinity : solver.settled_target_distances()[0];
 }
 
 DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const SurfacePoint& t,
@@ -1341,8 +1362,17 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
     for (std::size_t j = 0; j < T; ++j) {
       double best = out[i * T + j];
       for (const auto& [sample, d] : w.many[S + j].samples) best = std::min(best, w.get(0, sample) + d);
+      if (!exact[i * T + j]) {
+        // As answer() does (solver_t then no longer holds a target's near disk).
+        if (const double d = solve_exactly(sources[i], targets[j], best, w.solver_t, w.interrupt);
+            d < kInfinity) {
+          best = d;
+          solver_t_holds = SIZE_MAX;
+        } else if (refines(sources[i], targets[j], best)) {
+          near.push_back(j);
+        }
+      }
       out[i * T + j] = best;
-      if (!exact[i * T + j] && refines(sources[i], targets[j], best)) near.push_back(j);
     }
     if (near.empty()) continue;
     // Near pairs, as answer_near() does them: the source's near disk and wide links, and each

@@ -15,10 +15,12 @@
 //
 // Near pairs, where the paper's worst errors are (a graph path of few hops bends sharply at the
 // samples it passes), get more work (Options::refine_within): both points are solved exactly
-// out to near_radius (0.7 rho; farther among large triangles, for the same work). Pairs closer
-// than rho come out exact, as before. When the two disks overlap (pairs up to about 1.4 rho),
-// the pair meets at the best point of both on an edge near the best common vertex (exact
-// distances on both sides: the exact distance where the geodesic crosses that edge). All near
+// out to near_radius (0.7 rho; farther among large triangles, for the same work). Pairs whose
+// graph answer is under exact_within (2) rho come out exact instead, from one solve bounded by
+// that answer and directed at t (under the mesh's own lengths; it explores less than the two
+// disks would). When the two disks overlap (pairs up to about 1.4 rho), the pair meets at the
+// best point of both on an edge near the best common vertex (exact distances on both sides:
+// the exact distance where the geodesic crosses that edge). All near
 // pairs link through every vertex of their disks, so that their links reach 1.7 rho and the
 // graph path bends at one or two samples instead of several. The rule depends on each point
 // alone and on the graph's answer, which is symmetric: answers are symmetric. A distance field
@@ -98,6 +100,14 @@ struct GeodesicQueryOptions {
   /// 4 times the mesh's mean (by a quarter of that ratio). 0 turns refinement off: then every
   /// answer is the paper's, and fields equal point-to-point queries everywhere.
   double refine_within = 4;
+  /// Pairs whose graph answer is shorter than this many link radii are answered exactly, where
+  /// the edge lengths are the mesh's own (straight lines then bound geodesics from below): one
+  /// exact solve from s, bounded by the graph's answer and goal-directed towards t
+  /// (ExactGeodesicOptions::goal), explores the ellipse {x : d(s, x) + |x t| <= answer}, which
+  /// for such pairs is smaller than the two near disks of a refinement (below 2 rho: a median
+  /// of 0.1-0.4 of their work on lucy, armadillo, the dragon and cheese; docs/queries.md).
+  /// Farther pairs, and every pair under another metric, are refined as before. 0 turns it off.
+  double exact_within = 2;
   /// The radius of a near pair's two exact solves, in link radii (rho): each solve runs at
   /// least that far, then on while it has done less work than such a disk takes on average
   /// (times half the ratio of its face's edges to the mean when that exceeds 2, at most 3), up
@@ -240,6 +250,8 @@ class GeodesicQuery {
   PairAnswer answer_near(const SurfacePoint& s, const SurfacePoint& t,
                          QueryScratch::Impl& w) const;
   bool refines(const SurfacePoint& s, const SurfacePoint& t, double graph_distance) const;
+  double solve_exactly(const SurfacePoint& s, const SurfacePoint& t, double graph_distance,
+                       ExactGeodesicSolver& solver, const QueryInterrupt* interrupt) const;
   double sparseness(const SurfacePoint& p, double knee) const;
   void solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
                   const QueryInterrupt* interrupt) const;

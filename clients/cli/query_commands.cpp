@@ -354,6 +354,7 @@ struct EvalArgs {
   bool json = false;
   bool fmm = true;
   double refine_within = GeodesicQueryOptions{}.refine_within;  ///< --refine-within
+  double exact_within = GeodesicQueryOptions{}.exact_within;    ///< --exact-within
 };
 
 /// splitmix64: the same points for a seed on every platform.
@@ -433,6 +434,7 @@ void run_eval(const EvalArgs& args) {
   if (args.pairs == 0) throw InvalidInput("BadCount", "--pairs must be positive");
   GeodesicQueryOptions query_options;
   query_options.refine_within = args.refine_within;
+  query_options.exact_within = args.exact_within;
   LoadedGraph g(args.mesh, args.graph, args.metric, query_options);
   const TriangleMesh& mesh = g.mesh;
   const GeodesicQuery& query = *g.query;
@@ -570,9 +572,10 @@ void run_eval(const EvalArgs& args) {
   };
   add("mesh            %s (%zu faces, %zu vertices)\n", args.mesh.c_str(), mesh.num_faces(),
       mesh.num_vertices());
-  add("graph           %u samples, m_P %u, link radius %.6g, near pairs refined within %g "
-      "link radii\n",
-      view.num_samples, view.neighbors, query.link_radius(), args.refine_within);
+  add("graph           %u samples, m_P %u, link radius %.6g, near pairs solved exactly within %g "
+      "and refined within %g link radii\n",
+      view.num_samples, view.neighbors, query.link_radius(), args.exact_within,
+      args.refine_within);
   add("pairs           %zu (%zu answered exactly, %zu unreachable), seed %llu\n", approx.size(),
       exact_answers, unreachable, static_cast<unsigned long long>(args.seed));
   add("distance error  mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
@@ -613,9 +616,10 @@ void run_eval(const EvalArgs& args) {
     add("{\"mesh\":\"%s\",\"faces\":%zu,\"vertices\":%zu,\"samples\":%u,\"neighbors\":%u,",
         json_escape(args.mesh).c_str(), mesh.num_faces(), mesh.num_vertices(),
         view.num_samples, view.neighbors);
-    add("\"link_radius\":%.17g,\"refine_within\":%.17g,\"pairs\":%zu,\"exact_answers\":%zu,"
-        "\"unreachable\":%zu,",
-        query.link_radius(), args.refine_within, approx.size(), exact_answers, unreachable);
+    add("\"link_radius\":%.17g,\"exact_within\":%.17g,\"refine_within\":%.17g,\"pairs\":%zu,"
+        "\"exact_answers\":%zu,\"unreachable\":%zu,",
+        query.link_radius(), args.exact_within, args.refine_within, approx.size(), exact_answers,
+        unreachable);
     add("\"seed\":%llu,\"error\":{\"mean\":%.6g,\"p50\":%.6g,\"p99\":%.6g,\"max\":%.6g,"
         "\"below_exact\":%zu},",
         static_cast<unsigned long long>(args.seed), pair_err.mean, pair_err.p50, pair_err.p99,
@@ -793,9 +797,14 @@ void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
   eval->add_option("--seed", eval_args->seed, "Seed of the random points (same seed, same points)");
   eval->add_flag("--json", eval_args->json, "End with one JSON line holding every figure");
   eval->add_flag("!--no-fmm", eval_args->fmm, "Skip the fast-marching comparison");
+  eval->add_option("--exact-within", eval_args->exact_within,
+                   "Solve pairs whose graph answer is under this many link radii exactly, "
+                   "bounded by that answer (0: graph answers; docs/queries.md, near pairs)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   eval->add_option("--refine-within", eval_args->refine_within,
-                   "Refine pairs whose graph answer is under this many link radii (0: the "
-                   "paper's answers; docs/queries.md, near pairs)")
+                   "Refine pairs whose graph answer is under this many link radii (0 with "
+                   "--exact-within 0: the paper's answers; docs/queries.md, near pairs)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   eval->footer(

@@ -187,10 +187,19 @@ const TestMesh& prism_mesh() {
   return m;
 }
 
+/// Query options whose answers come from the graph: pairs under exact_within rho are not
+/// solved exactly (what most tests here check is the graph's answers, its refinement and
+/// paths; PairsUnderExactWithinAreExact checks the default).
+GeodesicQueryOptions graph_answer_options() {
+  GeodesicQueryOptions o;
+  o.exact_within = 0;
+  return o;
+}
+
 /// A mesh, a graph built for it and a query object over the graph, at stable addresses.
 struct QueryEnv {
   QueryEnv(const TestMesh& m, const ProximityGraphOptions& options,
-           const GeodesicQueryOptions& query_options = {})
+           const GeodesicQueryOptions& query_options = graph_answer_options())
       : mesh(*m.mesh),
         geometry(*m.geometry),
         graph(build_proximity_graph(mesh, geometry, options)),
@@ -211,7 +220,7 @@ ProximityGraphOptions graph_options(std::uint32_t samples, std::uint32_t neighbo
 /// The paper's queries on the same graph: no refinement of near pairs (a distance field equals
 /// these point-to-point answers at every vertex; the refined ones are as good or better).
 GeodesicQuery unrefined(const GeodesicQuery& query) {
-  GeodesicQueryOptions o;
+  GeodesicQueryOptions o = graph_answer_options();
   o.refine_within = 0;
   return GeodesicQuery(query.mesh(), query.geometry(), query.graph(), o);
 }
@@ -337,7 +346,7 @@ const std::vector<ExactPair>& spot_pairs() {
   return pairs;
 }
 
-/// The default query's answers to spot_pairs() (computed once, read by several tests).
+/// The graph's answers to spot_pairs() (graph_answer_options(); computed once, read by several tests).
 const std::vector<DistanceResult>& spot_answers() {
   static const std::vector<DistanceResult> answers = [] {
     const QueryEnv& env = spot_env();
@@ -398,7 +407,7 @@ TEST(GeodesicQuery, LinksThroughVerticesAgreeWithExactLinks) {
   // two links; a wrong vertex distance or a cover row of the wrong vertex breaks this). Both
   // without the refinement of near pairs, which would hide most of the difference.
   const QueryEnv& env = spot_env();
-  GeodesicQueryOptions exact_links;
+  GeodesicQueryOptions exact_links = graph_answer_options();
   exact_links.link_solve_edges = 0;
   exact_links.refine_within = 0;
   const GeodesicQuery reference(env.mesh, env.geometry, env.graph.view(), exact_links);
@@ -441,7 +450,7 @@ TEST(GeodesicQuery, LinkSolvesStopAtTheNearestVertices) {
   // answers stay symmetric and fields equal point-to-point queries. Links through fewer
   // vertices are upper bounds, a little longer than through the full three-edge disk.
   const QueryEnv& env = spot_env();
-  GeodesicQueryOptions capped_options, uncapped_options;
+  GeodesicQueryOptions capped_options = graph_answer_options(), uncapped_options = graph_answer_options();
   capped_options.refine_within = uncapped_options.refine_within = 0;
   capped_options.link_solve_vertices = 12;
   uncapped_options.link_solve_vertices = 0;
@@ -485,7 +494,7 @@ TEST(GeodesicQuery, VertexLimitIsInertForExactLinks) {
   // link_solve_edges = 0 links by a solve out to rho, exactly: no link solve to limit, so
   // link_solve_vertices changes nothing, near pairs' disks included.
   const QueryEnv& env = spot_env();
-  GeodesicQueryOptions limited, unlimited;
+  GeodesicQueryOptions limited = graph_answer_options(), unlimited = graph_answer_options();
   limited.link_solve_edges = unlimited.link_solve_edges = 0;
   unlimited.link_solve_vertices = 0;
   const GeodesicQuery a(env.mesh, env.geometry, env.graph.view(), limited);
@@ -847,6 +856,79 @@ TEST(GeodesicQuery, Symmetric) {
   EXPECT_GT(checked, 1000);
 }
 
+// The default options answer a pair whose paper answer is under exact_within (2) rho exactly:
+// one solve from s bounded by that answer and directed at t. Its distance is the full solve's,
+// it is symmetric and flagged exact, its path is the solve's backtrace, a matrix and
+// exact_distance() agree with it, and pairs beyond keep the graph's (refined) answer.
+TEST(GeodesicQuery, PairsUnderExactWithinAreExact) {
+  const QueryEnv& env = spot_env();
+  ASSERT_EQ(GeodesicQueryOptions{}.exact_within, 2.0);
+  const GeodesicQuery query(env.mesh, env.geometry, env.graph.view());
+  const GeodesicQuery paper = unrefined(env.query);
+  QueryScratch scratch = query.make_scratch(), paper_scratch = paper.make_scratch();
+  const double rho = query.link_radius();
+  int solved = 0, beyond = 0, paths = 0;
+  std::vector<SurfacePoint> sources, targets;
+  for (std::size_t k = 0; k < spot_pairs().size(); ++k) {
+    const ExactPair& p = spot_pairs()[k];
+    const DistanceResult u = paper.distance(p.s, p.t, paper_scratch);
+    const DistanceResult r = query.distance(p.s, p.t, scratch);
+    const std::string what = pair_name(p.s, p.t) + ": paper " + fmt(u.distance) + ", query " +
+                             fmt(r.distance) + ", exact " + fmt(p.exact);
+    if (u.exact || u.distance >= 2 * rho) {
+      // Close pairs were exact already; farther ones keep the graph's answer, refined.
+      EXPECT_EQ(r.exact, u.exact) << what;
+      EXPECT_EQ(r.distance, spot_answers()[k].distance) << what;
+      if (!u.exact) ++beyond;
+      continue;
+    }
+    ++solved;
+    EXPECT_TRUE(r.exact) << what;
+    EXPECT_TRUE(close_rel(r.distance, p.exact, kTight)) << what;
+    const DistanceResult back = query.distance(p.t, p.s, scratch);
+    EXPECT_TRUE(back.exact) << what;
+    EXPECT_TRUE(close_rel(back.distance, r.distance, kTight)) << what << ", back " << fmt(back.distance);
+    EXPECT_EQ(query.exact_distance(p.s, p.t, scratch).distance, r.distance) << what;
+    if (paths < 30) {
+      ++paths;
+      const PathResult path = query.path(p.s, p.t, scratch);
+      EXPECT_TRUE(path.exact) << what;
+      EXPECT_TRUE(path.samples.empty()) << what;
+      EXPECT_EQ(path.distance, r.distance) << what;
+      ASSERT_GE(path.points.size(), 2u) << what;
+      EXPECT_TRUE(same_surface_point(path.points.front().point, p.s)) << what;
+      EXPECT_TRUE(same_surface_point(path.points.back().point, p.t)) << what;
+      EXPECT_TRUE(close_rel(polyline_length(path.points), r.distance, kPathLength)) << what;
+    }
+    if (sources.size() < 8 && (sources.empty() || !same_surface_point(sources.back(), p.s))) {
+      sources.push_back(p.s);
+      targets.push_back(p.t);
+    }
+  }
+  EXPECT_GT(solved, 100);
+  EXPECT_GT(beyond, 100);
+  // A matrix takes the same rule: among these sources' targets some pairs are under 2 rho.
+  const std::vector<double> m = query.matrix(sources, targets, scratch);
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    for (std::size_t j = 0; j < targets.size(); ++j) {
+      const double d = query.distance(sources[i], targets[j], scratch).distance;
+      EXPECT_TRUE(close_rel(m[i * targets.size() + j], d, kTight))
+          << pair_name(sources[i], targets[j]) << ": matrix " << fmt(m[i * targets.size() + j])
+          << ", distance() " << fmt(d);
+    }
+  }
+  // Off, the same query object answers as the graph does.
+  GeodesicQueryOptions off;
+  off.exact_within = 0;
+  const GeodesicQuery graph_only(env.mesh, env.geometry, env.graph.view(), off);
+  QueryScratch graph_scratch = graph_only.make_scratch();
+  for (std::size_t k = 0; k < 50; ++k) {
+    const ExactPair& p = spot_pairs()[k];
+    EXPECT_EQ(graph_only.distance(p.s, p.t, graph_scratch).distance, spot_answers()[k].distance)
+        << pair_name(p.s, p.t);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // 4. The three graph searches agree
 
@@ -856,7 +938,7 @@ TEST(GeodesicQuery, Symmetric) {
 std::size_t compare_searches(const QueryEnv& env,
                              const std::vector<std::pair<SurfacePoint, SurfacePoint>>& pairs,
                              const std::vector<DistanceResult>& known, int& graph_answers) {
-  GeodesicQueryOptions o;
+  GeodesicQueryOptions o = graph_answer_options();
   o.search = GraphSearch::MeetInTheMiddle;
   const GeodesicQuery mitm(env.mesh, env.geometry, env.graph.view(), o);
   o.search = GraphSearch::Dijkstra;
@@ -996,7 +1078,7 @@ TEST(GeodesicQuery, PathsStartEndAndLengthMatch) {
   }
   // The other two searches build their paths from their own labels and parents.
   for (const GraphSearch search : {GraphSearch::MeetInTheMiddle, GraphSearch::Dijkstra}) {
-    GeodesicQueryOptions o;
+    GeodesicQueryOptions o = graph_answer_options();
     o.search = search;
     const GeodesicQuery other(env.mesh, env.geometry, env.graph.view(), o);
     QueryScratch other_scratch = other.make_scratch();
@@ -1719,9 +1801,11 @@ TEST(GeodesicQuery, TwoThreadsShareOneQuery) {
     q.positions.push_back(sampler.face_point(rng).position(env.mesh) + Vec3{0.001, -0.002, 0.003});
   }
 
-  // Serial answers from the shared query object; the threads use a fresh one, so that the
-  // snap index is built lazily while both threads ask for it.
-  const MixedAnswers serial = run_mixed(env.query, q, false);
+  // Serial answers from one query object with the default options (exact solves under
+  // exact_within rho included); the threads use a fresh one, so that the snap index is built
+  // lazily while both threads ask for it.
+  const GeodesicQuery serial_query(env.mesh, env.geometry, env.graph.view());
+  const MixedAnswers serial = run_mixed(serial_query, q, false);
   ASSERT_EQ(serial.error, "");
   const GeodesicQuery shared(env.mesh, env.geometry, env.graph.view());
   MixedAnswers first, second;
@@ -1762,21 +1846,23 @@ TEST(GeodesicQuery, MappedGraphFileAnswersLikeMemory) {
   write_graph_file(path, env.mesh, env.geometry, env.graph);
   const MappedGraphFile file = MappedGraphFile::open(path);
   file.verify_mesh(env.mesh, env.geometry);
+  // The default options, as the daemon's (exact solves under exact_within rho included).
+  const GeodesicQuery memory(env.mesh, env.geometry, env.graph.view());
   const GeodesicQuery mapped(env.mesh, env.geometry, file.view());
-  EXPECT_EQ(mapped.link_radius(), env.query.link_radius());
+  EXPECT_EQ(mapped.link_radius(), memory.link_radius());
   // The daemon's way: the mesh and its geometry from the bundle too.
   const TriangleMesh bundle_mesh = file.make_mesh();
   const IntrinsicGeometry bundle_geometry = file.make_geometry(bundle_mesh);
   const GeodesicQuery bundled(bundle_mesh, bundle_geometry, file.view());
 
-  QueryScratch s_mem = env.query.make_scratch(), s_map = mapped.make_scratch(),
+  QueryScratch s_mem = memory.make_scratch(), s_map = mapped.make_scratch(),
                s_bun = bundled.make_scratch();
   Rng rng(8080);
   const PointSampler sampler(env.mesh, env.geometry);
   int failures = 0;
   for (std::uint32_t k = 0; k < 150; ++k) {
     const SurfacePoint s = sampler.any(rng, k), t = sampler.any(rng, k / 3 + 1);
-    const DistanceResult a = env.query.distance(s, t, s_mem);
+    const DistanceResult a = memory.distance(s, t, s_mem);
     const DistanceResult b = mapped.distance(s, t, s_map);
     const DistanceResult c = bundled.distance(s, t, s_bun);
     if ((!same_bits(a.distance, b.distance) || !same_bits(a.distance, c.distance) ||
@@ -1786,7 +1872,7 @@ TEST(GeodesicQuery, MappedGraphFileAnswersLikeMemory) {
                     << fmt(b.distance) << ", bundle " << fmt(c.distance);
     }
     if (k % 15 == 0) {
-      const PathResult pa = env.query.path(s, t, s_mem);
+      const PathResult pa = memory.path(s, t, s_mem);
       const PathResult pb = mapped.path(s, t, s_map);
       EXPECT_TRUE(same_bits(pa.distance, pb.distance) && same_path_points(pa.points, pb.points))
           << "path " << pair_name(s, t);
@@ -1795,11 +1881,11 @@ TEST(GeodesicQuery, MappedGraphFileAnswersLikeMemory) {
   EXPECT_EQ(failures, 0);
   const std::vector<SurfacePoint> sources{SurfacePoint::face(42, 0.1, 0.2, 0.7),
                                           SurfacePoint::vertex(99)};
-  EXPECT_TRUE(test_support::same_bits(env.query.field(sources, s_mem).distances,
+  EXPECT_TRUE(test_support::same_bits(memory.field(sources, s_mem).distances,
                                       mapped.field(sources, s_map).distances));
   const std::vector<SurfacePoint> targets{SurfacePoint::edge(12, 0.5), SurfacePoint::vertex(2000),
                                           SurfacePoint::face(5000, 0.3, 0.3, 0.4)};
-  EXPECT_TRUE(test_support::same_bits(env.query.matrix(sources, targets, s_mem),
+  EXPECT_TRUE(test_support::same_bits(memory.matrix(sources, targets, s_mem),
                                       mapped.matrix(sources, targets, s_map)));
 }
 
