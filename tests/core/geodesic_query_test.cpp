@@ -303,6 +303,23 @@ class PointSampler {
   std::vector<double> cumulative_;
 };
 
+/// A matrix equals point-to-point queries, entry by entry (kTight).
+void expect_matrix_is_point_to_point(const GeodesicQuery& query,
+                                     const std::vector<SurfacePoint>& sources,
+                                     const std::vector<SurfacePoint>& targets,
+                                     QueryScratch& scratch) {
+  const std::vector<double> m = query.matrix(sources, targets, scratch);
+  ASSERT_EQ(m.size(), sources.size() * targets.size());
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    for (std::size_t j = 0; j < targets.size(); ++j) {
+      const double d = query.distance(sources[i], targets[j], scratch).distance;
+      EXPECT_TRUE(close_rel(m[i * targets.size() + j], d, kTight))
+          << pair_name(sources[i], targets[j]) << ": matrix " << fmt(m[i * targets.size() + j])
+          << ", distance() " << fmt(d);
+    }
+  }
+}
+
 struct ExactPair {
   SurfacePoint s, t;
   double exact = 0;
@@ -908,15 +925,7 @@ TEST(GeodesicQuery, PairsUnderExactWithinAreExact) {
   EXPECT_GT(solved, 100);
   EXPECT_GT(beyond, 100);
   // A matrix takes the same rule: among these sources' targets some pairs are under 2 rho.
-  const std::vector<double> m = query.matrix(sources, targets, scratch);
-  for (std::size_t i = 0; i < sources.size(); ++i) {
-    for (std::size_t j = 0; j < targets.size(); ++j) {
-      const double d = query.distance(sources[i], targets[j], scratch).distance;
-      EXPECT_TRUE(close_rel(m[i * targets.size() + j], d, kTight))
-          << pair_name(sources[i], targets[j]) << ": matrix " << fmt(m[i * targets.size() + j])
-          << ", distance() " << fmt(d);
-    }
-  }
+  expect_matrix_is_point_to_point(query, sources, targets, scratch);
   // Off, the same query object answers as the graph does.
   GeodesicQueryOptions off;
   off.exact_within = 0;
@@ -1319,16 +1328,7 @@ TEST(GeodesicQuery, FlatGridFieldAndMatrix) {
   std::vector<SurfacePoint> targets{SurfacePoint::vertex(1088), SurfacePoint::vertex(1),
                                     SurfacePoint::face(1001, 0.3, 0.3, 0.4),
                                     SurfacePoint::edge(600, 0.1)};
-  const std::vector<double> m = env.query.matrix(sources, targets, scratch);
-  ASSERT_EQ(m.size(), 12u);
-  for (std::size_t i = 0; i < sources.size(); ++i) {
-    for (std::size_t j = 0; j < targets.size(); ++j) {
-      const double d = env.query.distance(sources[i], targets[j], scratch).distance;
-      EXPECT_TRUE(close_rel(m[i * targets.size() + j], d, kTight))
-          << pair_name(sources[i], targets[j]) << ": matrix " << fmt(m[i * targets.size() + j])
-          << ", distance() " << fmt(d);
-    }
-  }
+  expect_matrix_is_point_to_point(env.query, sources, targets, scratch);
 }
 
 TEST(GeodesicQuery, ImportedGraphWithoutCoverTable) {
