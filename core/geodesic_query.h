@@ -148,12 +148,15 @@ class QueryScratch {
 
 struct DistanceResult {
   double distance = kInfinity;
-  /// True when the answer came from an exact solve (s and t within one local region).
+  /// True when the answer came from an exact solve (s and t within one local region, or a
+  /// graph answer under exact_within rho).
   bool exact = false;
   /// True when a near pair met at a point of both points' exact disks (see the file comment):
   /// no sample on the way.
   bool joined = false;
-  /// Samples whose graph label became final during the search (0 for exact answers).
+  /// Samples whose graph label became final during the search: 0 for pairs answered exactly
+  /// before any search (closer than rho); a pair under exact_within rho counts the search whose
+  /// answer bounded its exact solve.
   std::uint32_t samples_settled = 0;
 };
 
