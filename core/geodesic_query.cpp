@@ -935,17 +935,21 @@ PairAnswer GeodesicQuery::answer(const SurfacePoint& s, const SurfacePoint& t,
   return a;
 }
 
-// A pair whose graph answer is under exact_within rho, under the mesh's own lengths: the
-// exact distance from one solve bounded by that answer (never below the distance: a real
-// path) and directed at t, an ellipse around the geodesic. kInfinity for other pairs, or should
-// the solve not reach t (it always does: the bound is a path's length, plus rounding's share).
+// Whether a pair with this graph answer is solved exactly: under exact_within rho, under the
+// mesh's own lengths (the goal's straight-line bound needs them).
+bool GeodesicQuery::solves_exactly(double graph_distance) const {
+  return options_.exact_within > 0 && geometry_->lengths_are_chords() &&
+         graph_distance < options_.exact_within * link_radius_;
+}
+
+// Such a pair's exact distance from one solve bounded by its graph answer (never below the
+// distance: a real path) and directed at t, an ellipse around the geodesic. kInfinity for other
+// pairs, or should the solve not reach t (it always does: the bound is a path's length, plus
+// rounding's share).
 double GeodesicQuery::solve_exactly(const SurfacePoint& s, const SurfacePoint& t,
                                     double graph_distance, ExactGeodesicSolver& solver,
                                     const QueryInterrupt* interrupt) const {
-  if (!(options_.exact_within > 0 && geometry_->lengths_are_chords() &&
-        graph_distance < options_.exact_within * link_radius_)) {
-    return kInfinity;
-  }
+  if (!solves_exactly(graph_distance)) return kInfinity;
   solve_towards(s, t, graph_distance * (1 + 1e-9), solver, interrupt);
   return solver.settled_targets().empty() ? kInfinity : solver.settled_target_distances()[0];
 }
@@ -964,7 +968,8 @@ DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const Surfac
   if (geometry_->lengths_are_chords()) {
     const PairAnswer a = answer(s, t, w);
     if (a.from == PairAnswer::From::SolveS || a.from == PairAnswer::From::SolveT) {
-      result.distance = a.distance;  // a close pair: the query solved it exactly already
+      // The query solved it exactly already (a close pair, or one under exact_within rho).
+      result.distance = a.distance;
       return result;
     }
     bound = a.distance;
@@ -1363,11 +1368,12 @@ std::vector<double> GeodesicQuery::matrix(std::span<const SurfacePoint> sources,
       double best = out[i * T + j];
       for (const auto& [sample, d] : w.many[S + j].samples) best = std::min(best, w.get(0, sample) + d);
       if (!exact[i * T + j]) {
-        // As answer() does (solver_t then no longer holds a target's near disk).
+        // As answer() does. The solve reuses solver_t, which then holds no target's near disk
+        // (also should it not reach the target and the pair be refined after all).
+        if (solves_exactly(best)) solver_t_holds = SIZE_MAX;
         if (const double d = solve_exactly(sources[i], targets[j], best, w.solver_t, w.interrupt);
             d < kInfinity) {
           best = d;
-          solver_t_holds = SIZE_MAX;
         } else if (refines(sources[i], targets[j], best)) {
           near.push_back(j);
         }

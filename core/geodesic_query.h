@@ -253,6 +253,7 @@ class GeodesicQuery {
   PairAnswer answer_near(const SurfacePoint& s, const SurfacePoint& t,
                          QueryScratch::Impl& w) const;
   bool refines(const SurfacePoint& s, const SurfacePoint& t, double graph_distance) const;
+  bool solves_exactly(double graph_distance) const;
   double solve_exactly(const SurfacePoint& s, const SurfacePoint& t, double graph_distance,
                        ExactGeodesicSolver& solver, const QueryInterrupt* interrupt) const;
   double sparseness(const SurfacePoint& p, double knee) const;

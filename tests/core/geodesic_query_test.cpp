@@ -363,7 +363,8 @@ const std::vector<ExactPair>& spot_pairs() {
   return pairs;
 }
 
-/// The graph's answers to spot_pairs() (graph_answer_options(); computed once, read by several tests).
+/// The graph's answers to spot_pairs() (graph_answer_options(); computed once, read by several
+/// tests).
 const std::vector<DistanceResult>& spot_answers() {
   static const std::vector<DistanceResult> answers = [] {
     const QueryEnv& env = spot_env();
@@ -467,7 +468,8 @@ TEST(GeodesicQuery, LinkSolvesStopAtTheNearestVertices) {
   // answers stay symmetric and fields equal point-to-point queries. Links through fewer
   // vertices are upper bounds, a little longer than through the full three-edge disk.
   const QueryEnv& env = spot_env();
-  GeodesicQueryOptions capped_options = graph_answer_options(), uncapped_options = graph_answer_options();
+  GeodesicQueryOptions capped_options = graph_answer_options();
+  GeodesicQueryOptions uncapped_options = graph_answer_options();
   capped_options.refine_within = uncapped_options.refine_within = 0;
   capped_options.link_solve_vertices = 12;
   uncapped_options.link_solve_vertices = 0;
@@ -904,7 +906,8 @@ TEST(GeodesicQuery, PairsUnderExactWithinAreExact) {
     EXPECT_TRUE(close_rel(r.distance, p.exact, kTight)) << what;
     const DistanceResult back = query.distance(p.t, p.s, scratch);
     EXPECT_TRUE(back.exact) << what;
-    EXPECT_TRUE(close_rel(back.distance, r.distance, kTight)) << what << ", back " << fmt(back.distance);
+    EXPECT_TRUE(close_rel(back.distance, r.distance, kTight))
+        << what << ", back " << fmt(back.distance);
     EXPECT_EQ(query.exact_distance(p.s, p.t, scratch).distance, r.distance) << what;
     if (paths < 30) {
       ++paths;
@@ -926,16 +929,6 @@ TEST(GeodesicQuery, PairsUnderExactWithinAreExact) {
   EXPECT_GT(beyond, 100);
   // A matrix takes the same rule: among these sources' targets some pairs are under 2 rho.
   expect_matrix_is_point_to_point(query, sources, targets, scratch);
-  // Off, the same query object answers as the graph does.
-  GeodesicQueryOptions off;
-  off.exact_within = 0;
-  const GeodesicQuery graph_only(env.mesh, env.geometry, env.graph.view(), off);
-  QueryScratch graph_scratch = graph_only.make_scratch();
-  for (std::size_t k = 0; k < 50; ++k) {
-    const ExactPair& p = spot_pairs()[k];
-    EXPECT_EQ(graph_only.distance(p.s, p.t, graph_scratch).distance, spot_answers()[k].distance)
-        << pair_name(p.s, p.t);
-  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1367,16 +1360,9 @@ TEST(GeodesicQuery, ImportedGraphWithoutCoverTable) {
   const std::vector<SurfacePoint> targets{SurfacePoint::vertex(1088), SurfacePoint::vertex(41),
                                           SurfacePoint::edge(600, 0.1),
                                           SurfacePoint::face(1001, 0.3, 0.3, 0.4)};
-  const std::vector<double> m = query.matrix(sources, targets, scratch);
-  ASSERT_EQ(m.size(), 8u);
-  for (std::size_t i = 0; i < sources.size(); ++i) {
-    for (std::size_t j = 0; j < targets.size(); ++j) {
-      const double d = query.distance(sources[i], targets[j], scratch).distance;
-      EXPECT_TRUE(close_rel(m[i * targets.size() + j], d, kTight))
-          << pair_name(sources[i], targets[j]) << ": matrix " << fmt(m[i * targets.size() + j])
-          << ", distance() " << fmt(d);
-      check_path(query, sources[i], targets[j], scratch, 1.0);
-    }
+  expect_matrix_is_point_to_point(query, sources, targets, scratch);
+  for (const SurfacePoint& s : sources) {
+    for (const SurfacePoint& t : targets) check_path(query, s, t, scratch, 1.0);
   }
   // Distance fields need the cover table: refused rather than answered with kInfinity beyond
   // the source's own disk.
