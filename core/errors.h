@@ -47,6 +47,13 @@ class Unreachable : public Error {
   using Error::Error;
 };
 
+/// Work would need more memory than its bound allows (a bound derived from the mesh's size): it
+/// stops with this rather than take the machine. Reason "ResourceExhausted".
+class ResourceExhausted : public Error {
+ public:
+  explicit ResourceExhausted(const std::string& message) : Error("ResourceExhausted", message) {}
+};
+
 /// Work stopped before it finished: its deadline passed ("DeadlineExceeded") or its caller gave
 /// up ("Cancelled"), see QueryInterrupt.
 class Interrupted : public Error {

@@ -129,7 +129,10 @@ struct ExactGeodesicSolver::Candidate {
 
 ExactGeodesicSolver::ExactGeodesicSolver(const TriangleMesh& mesh,
                                          const IntrinsicGeometry& geometry)
-    : mesh_(&mesh), geometry_(&geometry), near_miss_(kNearMiss * geometry.mean_edge_length()) {
+    : mesh_(&mesh),
+      geometry_(&geometry),
+      near_miss_(kNearMiss * geometry.mean_edge_length()),
+      window_limit_(std::max(kMinWindows, kWindowsPerHalfedge * 3 * mesh.num_faces())) {
   GEOPROX_ASSERT(&geometry.mesh() == &mesh, "geometry was built for another mesh");
   const std::size_t nv = mesh.num_vertices(), nf = mesh.num_faces();
   vertex_distance_.assign(nv, kInfinity);
@@ -315,7 +318,10 @@ void ExactGeodesicSolver::run(std::span<const GeodesicSource> sources,
       // that is final.
       settle_targets_up_to(std::min({top.key, options.max_distance, skipped_min_key_}));
       if (settled_targets_.size() >= targets_wanted_ && top.key >= options.min_distance) {
+        // A target settled at an earlier pop may lie a few ulps beyond this key (keys are in
+        // order only to rounding): it is final, and so is its vertex.
         radius_reached_ = top.key;
+        for (double d : settled_distances_) radius_reached_ = std::max(radius_reached_, d);
         stopped = true;
         break;
       }
@@ -402,9 +408,16 @@ void ExactGeodesicSolver::add_source(std::uint32_t index, const GeodesicSource& 
     return;
   }
   auto [face, bary] = p.in_face(*mesh_);
+  const IntrinsicGeometry& g = *geometry_;
+  const Vec2 at = g.face_point(face, bary.data());
   for (int i = 0; i < 3; ++i) {
-    if (bary[i] >= 1) {
-      relax_vertex(mesh_->face(face)[i], source.offset, -1, kViaSourceVertex, index);
+    // At a corner, or a rounding error away from it: that vertex is the source (path_to still
+    // starts the path at the point). A seed there would send windows round the corner from
+    // face to face for ever, each one's source again at the end of the next side.
+    const Vec2 corner = g.face_corner(face, i);
+    const double gap = length2(at.x - corner.x, at.y - corner.y);
+    if (bary[i] >= 1 || gap <= kCoincident * g.mean_edge_length()) {
+      relax_vertex(mesh_->face(face)[i], source.offset + gap, -1, kViaSourceVertex, index);
       return;
     }
   }
@@ -890,6 +903,7 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   w.key = w.b0 == b0_trimmed && w.b1 == b1_trimmed ? key : window_key(w);
   const auto index = static_cast<std::uint32_t>(windows_.size());
   GEOPROX_ASSERT(index <= static_cast<std::uint32_t>(kListedIndex), "window index overflow");
+  if (windows_.size() >= window_limit_) [[unlikely]] throw_window_limit();
   windows_.push_back(w);
   list_window(halfedge, index, w.b0, w.b1);
   ++stats_.windows_created;
@@ -914,6 +928,14 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   }
 }
 
+[[gnu::noinline, noreturn]] void ExactGeodesicSolver::throw_window_limit() const {
+  throw ResourceExhausted(
+      "an exact solve stored " + std::to_string(windows_.size()) + " windows (" +
+      std::to_string((windows_.size() * sizeof(Window)) >> 20) + " MiB), the most allowed on a " +
+      "mesh of " + std::to_string(mesh_->num_faces()) + " faces (" +
+      std::to_string(kWindowsPerHalfedge) + " per halfedge): a degenerate mesh or a bug");
+}
+
 // Out of line: rare, and inlined into every flattened caller of create_window it cost the
 // common path 1.1% of a full solve's instructions (armadillo, callgrind).
 [[gnu::noinline]] bool ExactGeodesicSolver::source_at_pseudo_source_end(std::uint32_t halfedge,
@@ -926,7 +948,7 @@ void ExactGeodesicSolver::create_window(std::uint32_t halfedge, double b0, doubl
   // a source vertex) and is reached at least as near does all their work.
   const HalfedgeCrossing& crossing = geometry_->crossing(halfedge);
   const double L = crossing.layout.length;
-  const double coincident = 1e-12 * (geometry_->mean_edge_length() + L);
+  const double coincident = kCoincident * (geometry_->mean_edge_length() + L);
   for (const auto& [v, x] : {std::pair{crossing.origin, 0.0}, std::pair{crossing.target, L}}) {
     const double gap = std::abs(source.x - x);
     if (!(gap <= coincident)) continue;
@@ -1734,6 +1756,12 @@ GeodesicPath ExactGeodesicSolver::path_to(const SurfacePoint& point) const {
     if (via_vertex == kViaSourceVertex) {
       builder.add(SurfacePoint::vertex(v));
       source_index = vertex_source_[v];
+      // A source a rounding error from its vertex (add_source): the path starts at the point.
+      const SurfacePoint& source = sources_[source_index].point;
+      if (source.kind != SurfacePoint::Kind::Vertex &&
+          norm(source.position(*mesh_) - mesh_->position(v)) > 0) {
+        builder.add(source);
+      }
       done = true;
     } else if (via_vertex >= 0) {
       const auto u = static_cast<std::uint32_t>(via_vertex);

@@ -353,6 +353,7 @@ class ExactGeodesicSolver {
   // Whether a window with its source on the halfedge's line, at one of its ends, is that end
   // vertex's own view and can go (relaxing the vertex through `parent` first).
   bool source_at_pseudo_source_end(std::uint32_t halfedge, Vec2 source, double sigma, std::int32_t parent);
+  [[noreturn]] void throw_window_limit() const;
   void list_window(std::uint32_t halfedge, std::uint32_t index, double b0, double b1);
   /// Trims w against the distances of its face's corners; false if nothing is left. Sets key
   /// to window_key(w).
@@ -418,7 +419,15 @@ class ExactGeodesicSolver {
   /// kNearMiss of the mean edge length. The detour costs at most ~near_miss^2 / distance.
   /// (1e-5 still left a corner beside a 1e-6 needle 9e-6 too far in the stress tests.)
   static constexpr double kNearMiss = 1e-4;
+  /// Two points closer than this fraction of the lengths around them coincide (rounding).
+  static constexpr double kCoincident = 1e-12;
   double near_miss_;
+  /// The most windows one solve may store: kWindowsPerHalfedge per halfedge of the mesh (full
+  /// solves on real meshes store 2-17), at least kMinWindows. Past it the solve throws
+  /// ResourceExhausted, so that no solve's memory grows beyond a bound set by the mesh.
+  static constexpr std::size_t kWindowsPerHalfedge = 64;
+  static constexpr std::size_t kMinWindows = std::size_t{1} << 20;
+  std::size_t window_limit_;
 
   // Per-solve scratch, sized to the mesh once: distances are reset through touched_vertices_,
   // the rest is validated by generation stamps.

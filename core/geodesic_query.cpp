@@ -35,6 +35,11 @@ double bounding_box_diagonal(const TriangleMesh& mesh) {
 
 constexpr std::int32_t kFromQueryPoint = -1;  // parent of a sample linked directly
 constexpr std::uint32_t kDirect = UINT32_MAX;  // QueryLinks::via of a link not through a vertex
+// A distance field's exact disk around each source, in link radii: fields are exact out to it,
+// and every sample inside links the source to the graph. Its solve is most of a field's time;
+// 2 (as point-to-point queries) buys little accuracy for its cost (docs/queries.md, "Distance
+// fields and matrices").
+constexpr double kFieldExactRadii = 1.75;
 
 }  // namespace
 
@@ -120,6 +125,7 @@ struct QueryScratch::Impl {
   std::vector<std::uint32_t> settled_stamp[2];
   std::vector<double> potential;  ///< goal direction: p(i), kNoPotential until computed
   std::vector<std::uint32_t> origin;  ///< fields: which source's links the label comes from
+  std::vector<double> dense_label;    ///< fields: every sample's label, kInfinity if untouched
   std::vector<HeapEntry> heap[2];
   QueryLinks links_s, links_t;
   std::vector<QueryLinks> many;  ///< fields and matrices: one per point
@@ -937,6 +943,13 @@ PairAnswer GeodesicQuery::answer(const SurfacePoint& s, const SurfacePoint& t,
 
 // Whether a pair with this graph answer is solved exactly: under exact_within rho, under the
 // mesh's own lengths (the goal's straight-line bound needs them).
+// kFieldExactRadii rho where near pairs are answered exactly (exact_within > 0, under the
+// mesh's own lengths), else rho.
+double GeodesicQuery::field_exact_radius() const {
+  const bool wide = options_.exact_within > 0 && geometry_->lengths_are_chords();
+  return (wide ? kFieldExactRadii : 1.0) * link_radius_;
+}
+
 bool GeodesicQuery::solves_exactly(double graph_distance) const {
   return options_.exact_within > 0 && geometry_->lengths_are_chords() &&
          graph_distance < options_.exact_within * link_radius_;
@@ -954,13 +967,12 @@ double GeodesicQuery::solve_exactly(const SurfacePoint& s, const SurfacePoint& t
   return solver.settled_targets().empty() ? kInfinity : solver.settled_target_distances()[0];
 }
 
-DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const SurfacePoint& t,
-                                             QueryScratch& scratch) const {
-  s.validate(*mesh_);
-  t.validate(*mesh_);
-  QueryScratch::Impl& w = *scratch.impl_;
-  DistanceResult result;
-  result.exact = true;
+// The solver that holds the exact answer for (s, t) afterwards, with a settled target: solver_s
+// (from s, towards t) or, when the query solved the pair from t, solver_t.
+const ExactGeodesicSolver& GeodesicQuery::solve_pair_exactly(const SurfacePoint& s,
+                                                             const SurfacePoint& t,
+                                                             QueryScratch::Impl& w,
+                                                             double& distance) const {
   // On lucy.obj, pairs 4 to 5 rho apart: 24 -> 2.3 ms, the graph query included. Without the
   // bound (another metric), or should the bounded solve not reach t (a bug in the graph), the
   // solve runs unbounded.
@@ -969,8 +981,8 @@ DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const Surfac
     const PairAnswer a = answer(s, t, w);
     if (a.from == PairAnswer::From::SolveS || a.from == PairAnswer::From::SolveT) {
       // The query solved it exactly already (a close pair, or one under exact_within rho).
-      result.distance = a.distance;
-      return result;
+      distance = a.distance;
+      return a.from == PairAnswer::From::SolveS ? w.solver_s : w.solver_t;
     }
     bound = a.distance;
   }
@@ -979,7 +991,34 @@ DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const Surfac
     solve_towards(s, t, kInfinity, w.solver_s, w.interrupt);
   }
   if (w.solver_s.settled_targets().empty()) throw unreachable(s, t);
-  result.distance = w.solver_s.settled_target_distances()[0];
+  distance = w.solver_s.settled_target_distances()[0];
+  return w.solver_s;
+}
+
+DistanceResult GeodesicQuery::exact_distance(const SurfacePoint& s, const SurfacePoint& t,
+                                             QueryScratch& scratch) const {
+  s.validate(*mesh_);
+  t.validate(*mesh_);
+  DistanceResult result;
+  result.exact = true;
+  solve_pair_exactly(s, t, *scratch.impl_, result.distance);
+  return result;
+}
+
+PathResult GeodesicQuery::exact_path(const SurfacePoint& s, const SurfacePoint& t,
+                                     QueryScratch& scratch) const {
+  s.validate(*mesh_);
+  t.validate(*mesh_);
+  QueryScratch::Impl& w = *scratch.impl_;
+  PathResult result;
+  result.exact = true;
+  const ExactGeodesicSolver& solver = solve_pair_exactly(s, t, w, result.distance);
+  if (&solver == &w.solver_s) {
+    result.points = solver.path_to(t).points;
+  } else {
+    result.points = solver.path_to(s).points;
+    std::reverse(result.points.begin(), result.points.end());
+  }
   return result;
 }
 
@@ -1264,15 +1303,31 @@ DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryS
   QueryScratch::Impl& w = *scratch.impl_;
   if (w.many.size() < sources.size()) w.many.resize(sources.size());
   std::vector<const Links*> links(sources.size());
+  const double exact_radius = field_exact_radius();
   for (std::size_t k = 0; k < sources.size(); ++k) {
     Links& l = w.many[k];
-    // Links as for point-to-point queries, from the solve out to rho that the exact region
-    // needs anyway.
-    solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
-    const double exact_within = link_solved(sources[k], w.solver_s, w, l);
+    // One solve out to the exact radius gives the exact region and links as for point-to-point
+    // queries and, when it reaches beyond rho, a link to every sample inside at its exact
+    // distance: the graph then starts from the whole disk, so that vertices just beyond it are
+    // not answered through a path of few hops, where the paper's answers err most.
+    ExactGeodesicOptions bounded;
+    bounded.max_distance = exact_radius;
+    bounded.queue_halfedges = true;
+    bounded.interrupt = w.interrupt;
+    w.solver_s.solve(sources[k], bounded);
+    // kInfinity when no sample lies within rho: the solver then holds the solve out to the
+    // nearest sample, every value of which is exact.
+    const bool sparse = link_solved(sources[k], w.solver_s, w, l) == kInfinity;
+    const double exact_within = sparse ? kInfinity : exact_radius;
+    const bool link_disk = !sparse && exact_radius > link_radius_;
     for (std::uint32_t v : w.solver_s.touched_vertices()) {
       const double d = w.solver_s.distance(v);
-      if (d <= options.max_distance && d <= exact_within) l.region.emplace_back(v, d);
+      if (!(d <= exact_within)) continue;
+      if (d <= options.max_distance) l.region.emplace_back(v, d);
+      if (link_disk && sample_of_vertex_[v] >= 0) {
+        l.samples.emplace_back(static_cast<std::uint32_t>(sample_of_vertex_[v]), d);
+        l.via.emplace_back(kDirect, 0.0);
+      }
     }
     links[k] = &l;
   }
@@ -1282,24 +1337,29 @@ DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryS
   DistanceField out;
   out.distances.assign(static_cast<std::size_t>(nv), kInfinity);
   out.nearest_source.assign(static_cast<std::size_t>(nv), -1);
+  // Every sample's label in one dense array (the cover rows read it once per entry, the stamps
+  // only once per sample).
+  w.dense_label.resize(graph_.num_samples);
+  for (std::uint32_t i = 0; i < graph_.num_samples; ++i) w.dense_label[i] = w.get(0, i);
+  const double* label = w.dense_label.data();
+  const std::uint32_t* cover_sample = graph_.cover_sample.data();
+  const float* cover_distance = graph_.cover_distance.data();
   const QueryScratch::Impl& labels = w;
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
 #pragma omp parallel for num_threads(threads) schedule(static, 4096) if (threads > 1)
   for (std::int64_t v = 0; v < nv; ++v) {
     double best = kInfinity;
-    std::int32_t from = -1;
-    for (std::uint32_t c = graph_.cover_offsets[static_cast<std::size_t>(v)];
-         c < graph_.cover_offsets[static_cast<std::size_t>(v) + 1]; ++c) {
-      const std::uint32_t i = graph_.cover_sample[c];
-      const double d = labels.get(0, i) + static_cast<double>(graph_.cover_distance[c]);
-      if (d < best) {
-        best = d;
-        from = static_cast<std::int32_t>(labels.origin[i]);
-      }
+    std::uint32_t best_entry = 0;
+    const std::uint32_t end = graph_.cover_offsets[static_cast<std::size_t>(v) + 1];
+    for (std::uint32_t c = graph_.cover_offsets[static_cast<std::size_t>(v)]; c < end; ++c) {
+      const double d = label[cover_sample[c]] + static_cast<double>(cover_distance[c]);
+      best_entry = d < best ? c : best_entry;
+      best = d < best ? d : best;
     }
-    if (best <= options.max_distance) {
+    if (best <= options.max_distance && best < kInfinity) {
       out.distances[static_cast<std::size_t>(v)] = best;
-      out.nearest_source[static_cast<std::size_t>(v)] = from;
+      out.nearest_source[static_cast<std::size_t>(v)] =
+          static_cast<std::int32_t>(labels.origin[cover_sample[best_entry]]);
     }
   }
   for (std::size_t k = 0; k < sources.size(); ++k) {

@@ -24,8 +24,9 @@
 // pairs link through every vertex of their disks, so that their links reach 1.7 rho and the
 // graph path bends at one or two samples instead of several. The rule depends on each point
 // alone and on the graph's answer, which is symmetric: answers are symmetric. A distance field
-// (covers of each vertex) equals point-to-point queries to its vertices beyond the refined
-// range; inside it, point-to-point answers are as good or better.
+// is exact out to 1.75 rho around each source (rho with exact_within = 0), and every sample in
+// that disk links the source to the graph; beyond it a vertex takes the best of its cover row, never
+// longer than the paper's answer (a point-to-point query with refine_within = exact_within = 0).
 //
 // Thread safety: a GeodesicQuery is immutable after construction and may be shared by any
 // number of threads; each thread passes its own QueryScratch, which holds every buffer a query
@@ -89,7 +90,7 @@ struct GeodesicQueryOptions {
   /// ... and no farther than the nearest this many vertices (still at least to the face's
   /// corners): where needles reach across small triangles, the mean of one face's edges
   /// misjudges its neighbourhood (cheese.off: a solve out to three such edges settled 382
-  /// vertices at the median, against 39-61 on the regular meshes of ../shared/meshes, 44-135
+  /// vertices at the median, against 39-61 on the regular meshes of the test corpus, 44-135
   /// at their 90th percentile). The radius depends on p alone: the same from a solve that
   /// went farther. A near pair's disk around p still reaches as far as the solve would have
   /// without the limit, so that its wide links take every path the unlimited links would
@@ -97,8 +98,8 @@ struct GeodesicQueryOptions {
   std::uint32_t link_solve_vertices = 100;
   /// Pairs whose graph answer is shorter than this many link radii are refined as the file
   /// comment says (near pairs); up to 3 times farther when a point's face has edges more than
-  /// 4 times the mesh's mean (by a quarter of that ratio). 0 turns refinement off: then every
-  /// answer is the paper's, and fields equal point-to-point queries everywhere.
+  /// 4 times the mesh's mean (by a quarter of that ratio). 0 turns refinement off: then, with
+  /// exact_within = 0, every answer is the paper's, and fields equal point-to-point queries.
   double refine_within = 4;
   /// Pairs whose graph answer is shorter than this many link radii are answered exactly, where
   /// the edge lengths are the mesh's own (straight lines then bound geodesics from below): one
@@ -107,6 +108,9 @@ struct GeodesicQueryOptions {
   /// for such pairs is smaller than the two near disks of a refinement (below 2 rho: a median
   /// of 0.1-0.4 of their work on lucy, armadillo, the dragon and cheese; docs/queries.md).
   /// Farther pairs, and every pair under another metric, are refined as before. 0 turns it off.
+  /// Under the mesh's own lengths and with exact_within > 0, distance fields are exact out to
+  /// 1.75 link radii around each source (else rho), and every sample inside links the source
+  /// to the graph.
   double exact_within = 2;
   /// The radius of a near pair's two exact solves, in link radii (rho): each solve runs at
   /// least that far, then on while it has done less work than such a disk takes on average
@@ -214,6 +218,10 @@ class GeodesicQuery {
   /// ellipse around the geodesic instead of the disk out to t. Throws as distance() does.
   DistanceResult exact_distance(const SurfacePoint& s, const SurfacePoint& t,
                                 QueryScratch& scratch) const;
+  /// The exact geodesic and its length, by the same bounded solve as exact_distance (`exact`
+  /// is true): the backtrace of that solve. Throws as path() does.
+  PathResult exact_path(const SurfacePoint& s, const SurfacePoint& t,
+                        QueryScratch& scratch) const;
 
   /// Geodesic distance between two surface points. Throws InvalidInput for invalid points and
   /// Unreachable when they lie in different components.
@@ -254,6 +262,9 @@ class GeodesicQuery {
                          QueryScratch::Impl& w) const;
   bool refines(const SurfacePoint& s, const SurfacePoint& t, double graph_distance) const;
   bool solves_exactly(double graph_distance) const;
+  double field_exact_radius() const;
+  const ExactGeodesicSolver& solve_pair_exactly(const SurfacePoint& s, const SurfacePoint& t,
+                                                QueryScratch::Impl& w, double& distance) const;
   double solve_exactly(const SurfacePoint& s, const SurfacePoint& t, double graph_distance,
                        ExactGeodesicSolver& solver, const QueryInterrupt* interrupt) const;
   double sparseness(const SurfacePoint& p, double knee) const;

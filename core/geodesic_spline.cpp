@@ -149,12 +149,13 @@ std::vector<PathPoint> GeodesicSpline::geodesic(const SurfacePoint& a, const Sur
   ++worker.geodesics;
   if (options.geodesics == SplineGeodesics::Graph &&
       norm(b.position(*mesh_) - a.position(*mesh_)) > query_->link_radius()) {
-    return query_->path(a, b, *worker.scratch).points;
+    return query_->exact_path(a, b, *worker.scratch).points;
   }
   ExactGeodesicOptions solve;
   solve.stop_after_targets = 1;
   solve.queue_halfedges = true;
   solve.interrupt = options.interrupt;
+  if (geometry_->lengths_are_chords()) solve.goal = b.position(*mesh_);
   const GeodesicSource source{a, 0};
   worker.solver.solve(std::span<const GeodesicSource>(&source, 1),
                       std::span<const SurfacePoint>(&b, 1), solve);

@@ -13,10 +13,14 @@
 // The first level of both runs along the control polygon, whose geodesics are computed once and
 // returned; every sample then needs 3 more geodesics (levels 2 and 3).
 //
-// Geodesics come from the proximity graph or, in the exact mode, from the exact solver stopped
-// at the target. In the graph mode a pair closer in space than the link radius rho also gets
-// the exact solver: its cost grows with the pair's distance squared, while a graph path pays
-// two link pieces of about rho each, and the levels after the first mostly join close points.
+// Geodesics are exact in both modes, which differ in what bounds the solve. The exact mode runs
+// the exact solver from A until B is settled (goal-directed at B under the mesh's own lengths).
+// The graph mode bounds that solve by the graph's answer for the pair (GeodesicQuery::
+// exact_path), so that it explores a thin ellipse around the geodesic instead of a disk; a pair
+// closer in space than the link radius rho skips the graph query. A graph path is not used as
+// the geodesic: its length is off by a fraction of a percent, but its points stray from the
+// geodesic by about the square root of that (a planar Bezier on a grid was off by 2% of the
+// grid), and the spline takes points along its geodesics.
 // Curve points are independent once the control polygon is known: Options::threads spreads
 // them over OpenMP threads, each with its own scratch.
 // The point at fraction u is found on the path polyline by intrinsic arc length (segment lengths
@@ -44,7 +48,7 @@ enum class SplineType : std::uint8_t {
 };
 
 enum class SplineGeodesics : std::uint8_t {
-  Graph = 0,  ///< GeodesicQuery::path
+  Graph = 0,  ///< exact geodesics bounded by the graph's answers (GeodesicQuery::exact_path)
   Exact = 1,  ///< exact solver, stopped once the target is settled
 };
 

@@ -60,7 +60,7 @@ struct IntrinsicGeometryOptions {
   /// grazing along them was lost or bent by up to 2x. Their corners become pseudo-sources
   /// emitting in every direction, like those of zero-area faces: the paths through them are
   /// real, so exactness is unaffected and solves on such meshes only create more windows. No
-  /// face of the real meshes in ../shared/meshes is below 1e-3 (lucy.obj: 3 below 1e-2).
+  /// face of the real meshes of the test corpus is below 1e-3 (lucy.obj: 3 below 1e-2).
   double thin_face_ratio = 1e-5;
   /// An edge shorter than this fraction of the longest side of a face it bounds is short: the
   /// angles at its ends in that face, and so the frame of its halfedges, follow from the other

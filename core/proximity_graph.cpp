@@ -3,9 +3,11 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -403,6 +405,10 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   std::size_t done = 0;
   const std::vector<std::uint32_t> solve_order = spatial_order(mesh, graph.sample_vertex);
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  // No exception may leave an OpenMP region: the first one of any thread is rethrown once all
+  // have stopped, and the others skip their remaining samples.
+  std::exception_ptr failure;
+  std::atomic<bool> failed = false;
 #pragma omp parallel num_threads(threads)
   {
     ExactGeodesicSolver solver(mesh, geometry);
@@ -422,50 +428,59 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     // file is the same byte for byte).
 #pragma omp for schedule(dynamic, 16)
     for (std::uint32_t rank = 0; rank < n; ++rank) {
-      const std::uint32_t i = solve_order[rank];
-      const GeodesicSource source{targets[i], 0.0};
-      solver.solve(targets[i], to_radius);
-      found.clear();
-      for (std::uint32_t v : solver.touched_vertices()) {
-        const std::int32_t j = sample_of_vertex[v];
-        const double d = solver.distance(v);  // finite only within the radius
-        if (j >= 0 && static_cast<std::uint32_t>(j) != i && d < kInfinity) {
-          found.emplace_back(d, static_cast<std::uint32_t>(j));
-        }
-      }
-      if (found.size() + 1 < to_neighbors.stop_after_targets) {
-        // A sparse spot (or a small component): on to the m_P nearest samples.
-        solver.solve(std::span<const GeodesicSource>(&source, 1), prepared_targets, to_neighbors);
+      if (failed.load(std::memory_order_relaxed)) continue;
+      try {
+        const std::uint32_t i = solve_order[rank];
+        const GeodesicSource source{targets[i], 0.0};
+        solver.solve(targets[i], to_radius);
         found.clear();
-        for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
-          const std::uint32_t j = solver.settled_targets()[k];
-          if (j != i) found.emplace_back(solver.settled_target_distances()[k], j);
+        for (std::uint32_t v : solver.touched_vertices()) {
+          const std::int32_t j = sample_of_vertex[v];
+          const double d = solver.distance(v);  // finite only within the radius
+          if (j >= 0 && static_cast<std::uint32_t>(j) != i && d < kInfinity) {
+            found.emplace_back(d, static_cast<std::uint32_t>(j));
+          }
         }
-      }
-      std::sort(found.begin(), found.end());
-      // Every sample found is an edge: the m_P nearest and every one within the link radius.
-      // The solve has reached them anyway, and longer, more numerous edges make graph paths
-      // straighter (mean error on lucy.obj 1.15% -> 0.52%).
-      for (const auto& [d, j] : found) {
-        const GeodesicPath path = solver.path_to(targets[j]);
-        edges_of[i].push_back(
-            {i, j, d, to_graph_direction(mesh, graph.sample_vertex[i], path.direction_at_source)});
-        edges_of[i].push_back(
-            {j, i, d, to_graph_direction(mesh, graph.sample_vertex[j], path.direction_at_target)});
-      }
-      for (std::uint32_t v : solver.touched_vertices()) {
-        const double d = solver.distance(v);
-        if (d < kInfinity) covers_of[i].push_back({v, d});
-      }
-      if (progress) {
+        if (found.size() + 1 < to_neighbors.stop_after_targets) {
+          // A sparse spot (or a small component): on to the m_P nearest samples.
+          solver.solve(std::span<const GeodesicSource>(&source, 1), prepared_targets, to_neighbors);
+          found.clear();
+          for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
+            const std::uint32_t j = solver.settled_targets()[k];
+            if (j != i) found.emplace_back(solver.settled_target_distances()[k], j);
+          }
+        }
+        std::sort(found.begin(), found.end());
+        // Every sample found is an edge: the m_P nearest and every one within the link radius.
+        // The solve has reached them anyway, and longer, more numerous edges make graph paths
+        // straighter (mean error on lucy.obj 1.15% -> 0.52%).
+        for (const auto& [d, j] : found) {
+          const GeodesicPath path = solver.path_to(targets[j]);
+          const std::uint32_t vi = graph.sample_vertex[i], vj = graph.sample_vertex[j];
+          edges_of[i].push_back({i, j, d, to_graph_direction(mesh, vi, path.direction_at_source)});
+          edges_of[i].push_back({j, i, d, to_graph_direction(mesh, vj, path.direction_at_target)});
+        }
+        for (std::uint32_t v : solver.touched_vertices()) {
+          const double d = solver.distance(v);
+          if (d < kInfinity) covers_of[i].push_back({v, d});
+        }
+        if (progress) {
 #pragma omp critical(geoprox_graph_progress)
-        {
-          ++done;
-          if (done % 64 == 0 || done == n) progress("local solves", static_cast<double>(done) / n);
+          {
+            ++done;
+            if (done % 64 == 0 || done == n) {
+              progress("local solves", static_cast<double>(done) / n);
+            }
+          }
         }
+      } catch (...) {
+#pragma omp critical(geoprox_graph_failure)
+        if (!failure) failure = std::current_exception();
+        failed.store(true, std::memory_order_relaxed);
       }
     }
   }
+  if (failure) std::rethrow_exception(failure);
 
   // The graph must be connected within each mesh component (the paper's R >= 2r argument
   // guarantees it for dense enough samples; thin parts can still split it). Join every stray

@@ -40,13 +40,13 @@ void SurfacePoint::validate(const TriangleMesh& mesh) const {
       }
       double sum = 0;
       for (double b : bary) {
-        if (!std::isfinite(b) || b < -1e-12) {
+        if (!std::isfinite(b) || b < -kBarycentricNegativeTolerance) {
           throw InvalidInput("BadBarycentric", "barycentric coordinates of " + to_string() +
                                                    " must be finite and non-negative");
         }
         sum += b;
       }
-      if (std::abs(sum - 1) > 1e-9) {
+      if (!(std::abs(sum - 1) <= kBarycentricSumTolerance)) {
         throw InvalidInput("BadBarycentric", "barycentric coordinates of " + to_string() +
                                                  " sum to " + std::to_string(sum) +
                                                  ", not 1");
@@ -159,8 +159,13 @@ SurfacePoint parse_surface_point(const std::string& text) {
     return SurfacePoint::edge(parse_id(text, fields[1]), parse_number(text, fields[2]));
   }
   if (kind == "f" && fields.size() == 5) {
-    return SurfacePoint::face(parse_id(text, fields[1]), parse_number(text, fields[2]),
-                              parse_number(text, fields[3]), parse_number(text, fields[4]));
+    SurfacePoint p = SurfacePoint::face(parse_id(text, fields[1]), parse_number(text, fields[2]),
+                                        parse_number(text, fields[3]), parse_number(text, fields[4]));
+    const double sum = p.bary[0] + p.bary[1] + p.bary[2];
+    if (std::abs(sum - 1) <= kBarycentricSumTolerance) {
+      for (double& b : p.bary) b /= sum;
+    }
+    return p;
   }
   if (kind != "v" && kind != "e" && kind != "f") bad_syntax(text, "unknown kind '" + kind + "'");
   bad_syntax(text, "wrong number of fields for kind '" + kind + "'");

@@ -3,8 +3,9 @@
 // Face points use barycentric coordinates in the order of that face's vertices in the file;
 // edge points use t in [0, 1] from edge_origin(e) to edge_target(e) (see core/mesh.h).
 // validate() refuses ids out of range (VertexOutOfRange, EdgeOutOfRange, FaceOutOfRange), and
-// barycentrics that are not finite, negative beyond 1e-12 or do not sum to 1 within 1e-9
-// (BadBarycentric); an edge parameter outside [0, 1] is BadEdgeParameter.
+// barycentrics that are not finite, negative beyond 1e-12 or do not sum to 1 within 1e-5
+// (BadBarycentric); an edge parameter outside [0, 1] is BadEdgeParameter. The sum's tolerance
+// covers barycentrics rounded to six decimals; parse_surface_point divides them by their sum.
 #pragma once
 
 #include <array>
@@ -14,6 +15,12 @@
 #include "core/mesh.h"
 
 namespace geoprox {
+
+/// How far below 0 a barycentric coordinate may be (rounding noise).
+inline constexpr double kBarycentricNegativeTolerance = 1e-12;
+/// How far from 1 barycentrics may sum: three coordinates rounded to six decimals are off by up
+/// to 1.5e-6 together.
+inline constexpr double kBarycentricSumTolerance = 1e-5;
 
 struct SurfacePoint {
   enum class Kind : std::uint8_t { Vertex, Edge, Face };

@@ -27,7 +27,7 @@ constexpr std::array kReasons = {
                     "or fractional id, a non-finite position"},
     ErrorReasonInfo{R::BadBarycentric, "BadBarycentric", c::kInvalidParams, false,
                     "face barycentrics not finite, negative beyond 1e-12, or not summing to 1 "
-                    "within 1e-9"},
+                    "within 1e-5"},
     ErrorReasonInfo{R::BadEdgeParameter, "BadEdgeParameter", c::kInvalidParams, false,
                     "edge parameter t not a finite number in [0, 1]"},
     ErrorReasonInfo{R::VertexOutOfRange, "VertexOutOfRange", c::kInvalidParams, false,
@@ -62,6 +62,9 @@ constexpr std::array kReasons = {
     ErrorReasonInfo{R::TooLarge, "TooLarge", c::kTooLarge, false,
                     "a limit was exceeded: line bytes, nesting depth, points, matrix pairs, "
                     "field sources, batch size or output bytes"},
+    ErrorReasonInfo{R::ResourceExhausted, "ResourceExhausted", c::kResourceExhausted, false,
+                    "answering would take more memory than the server allows one request (a "
+                    "bound set by the mesh's size); the server goes on serving"},
     ErrorReasonInfo{R::Overloaded, "Overloaded", c::kOverloaded, true,
                     "the compute queue is full; retry after data.retry_after_ms"},
     ErrorReasonInfo{R::DeadlineExceeded, "DeadlineExceeded", c::kDeadlineExceeded, true,

@@ -32,6 +32,7 @@ inline constexpr int kBadMeshFile = -32005;
 inline constexpr int kNotFound = -32006;
 inline constexpr int kUnreachable = -32010;
 inline constexpr int kTooLarge = -32020;
+inline constexpr int kResourceExhausted = -32021;
 inline constexpr int kOverloaded = -32030;
 inline constexpr int kDeadlineExceeded = -32031;
 inline constexpr int kShuttingDown = -32032;
@@ -64,6 +65,7 @@ enum class ErrorReason : std::uint8_t {
   // Answers and resources (server).
   Unreachable,
   TooLarge,
+  ResourceExhausted,
   Overloaded,
   DeadlineExceeded,
   ShuttingDown,

@@ -55,7 +55,7 @@ std::uint32_t checked_id(std::uint64_t id, WirePoint::Kind kind, const std::stri
 }
 
 /// The value checks shared by both forms; `where` names the point ("params.source").
-void check_values(const WirePoint& point, std::string_view where) {
+void check_values(WirePoint& point, std::string_view where) {
   const std::string at(where);
   switch (point.kind) {
     case WirePoint::Kind::Vertex:
@@ -81,8 +81,9 @@ void check_values(const WirePoint& point, std::string_view where) {
       if (!(std::abs(sum - 1) <= kBarycentricSumTolerance)) {
         throw ProtocolError(ErrorReason::BadBarycentric, at + ": barycentric coordinates sum to " +
                                                              format_number(sum) +
-                                                             ", not 1 (tolerance 1e-9)");
+                                                             ", not 1 (tolerance 1e-5)");
       }
+      for (double& b : point.bary) b /= sum;
       return;
     }
     case WirePoint::Kind::Position:

@@ -11,8 +11,9 @@
 //
 // Checked here, without a mesh: shape and types (BadPoint), ids are integers in [0, 2^32)
 // (larger ones are <Kind>OutOfRange: no mesh has that many), t finite in [0, 1]
-// (BadEdgeParameter), barycentrics finite, >= -1e-12 and summing to 1 within 1e-9
-// (BadBarycentric), positions finite (BadPoint). Ids against the mesh are the server's check.
+// (BadEdgeParameter), barycentrics finite, >= -1e-12 and summing to 1 within 1e-5, then divided by
+// their sum (BadBarycentric), positions finite (BadPoint). Ids against the mesh are the server's
+// check.
 #pragma once
 
 #include <array>
@@ -45,9 +46,10 @@ struct WirePoint {
   bool operator==(const WirePoint&) const = default;
 };
 
-/// Barycentric tolerances shared with core/surface_point.h.
+/// Barycentric tolerances, the same as core/surface_point.h's. The sum's covers coordinates
+/// rounded to six decimals (each off by up to 5e-7); accepted sums are divided out.
 inline constexpr double kBarycentricNegativeTolerance = 1e-12;
-inline constexpr double kBarycentricSumTolerance = 1e-9;
+inline constexpr double kBarycentricSumTolerance = 1e-5;
 
 /// Parses an object or string form; `path` names the value in messages ("params.source").
 /// Throws ProtocolError (BadPoint, BadBarycentric, BadEdgeParameter, <Kind>OutOfRange).

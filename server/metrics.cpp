@@ -1,5 +1,6 @@
 #include "server/metrics.h"
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 
@@ -56,10 +57,11 @@ std::string method_label(std::size_t slot) {
   return "invalid";
 }
 
+/// The shortest text that reads back as the same double ("0.00025", not 0.00025000000000000001).
 std::string format_double(double value) {
   char buf[64];
-  std::snprintf(buf, sizeof buf, "%.17g", value);
-  return buf;
+  const auto [end, error] = std::to_chars(buf, buf + sizeof buf, value);
+  return error == std::errc() ? std::string(buf, end) : std::string("NaN");
 }
 
 void gauge(std::string& out, const char* name, const char* help, const char* type,

@@ -342,10 +342,12 @@ ProtocolError current_error(bool draining) {
     return ProtocolError(ErrorReason::Unreachable, e.what());
   } catch (const InvalidInput& e) {
     return ProtocolError(point_reason(e.reason()), e.what());
+  } catch (const geoprox::ResourceExhausted& e) {
+    return ProtocolError(ErrorReason::ResourceExhausted, e.what());
   } catch (const geoprox::Error& e) {
     return ProtocolError(ErrorReason::Internal, describe_exception(e));
   } catch (const std::bad_alloc&) {
-    return ProtocolError(ErrorReason::Internal, "out of memory while answering");
+    return ProtocolError(ErrorReason::ResourceExhausted, "out of memory while answering");
   } catch (const std::exception& e) {
     return ProtocolError(ErrorReason::Internal, std::string("unexpected failure: ") + e.what());
   } catch (...) {

@@ -94,8 +94,8 @@ int main(int argc, char** argv) {
     print_diagnostic("error", std::string(e.what()) + " [" + e.reason() + "]" + hint);
     return kExitInput;
   } catch (const std::bad_alloc&) {
-    print_diagnostic("error", "out of memory");
-    return kExitInternal;
+    print_diagnostic("error", "out of memory [ResourceExhausted]");
+    return kExitInput;
   } catch (const std::exception& e) {
     print_diagnostic("error", std::string("internal error: ") + e.what());
     return kExitInternal;

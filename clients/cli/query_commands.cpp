@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -348,7 +349,7 @@ struct EvalArgs {
   std::string metric;  ///< --metric: the side file the graph was built with
   std::string mesh, graph;
   std::size_t pairs = 1000;
-  std::size_t fields = 2;
+  std::size_t fields = 2;  ///< fields of each kind of source (FieldKind)
   std::size_t paths = 200;
   std::uint64_t seed = 1;
   bool json = false;
@@ -394,6 +395,41 @@ class AreaSampler {
  private:
   std::vector<double> cumulative_;
 };
+
+/// The kinds of field sources eval draws, each from a point uniform by area: that point's face
+/// point, its face's nearest corner, the nearest point of its face's sides, and three points.
+enum class FieldKind : std::size_t { Vertex, Edge, Face, ThreeSources };
+constexpr std::size_t kFieldKinds = 4;
+constexpr const char* kFieldKindNames[kFieldKinds] = {"vertex", "edge", "face", "multi"};
+
+std::vector<SurfacePoint> field_sources_of_kind(FieldKind kind, const TriangleMesh& mesh,
+                                                const AreaSampler& sampler, Rng& rng) {
+  const SurfacePoint p = sampler.draw(rng);
+  const Triangle& corners = mesh.face(p.id);
+  const auto& b = p.bary;
+  switch (kind) {
+    case FieldKind::Vertex:
+      return {SurfacePoint::vertex(corners[static_cast<std::size_t>(
+          std::max_element(b.begin(), b.end()) - b.begin())])};
+    case FieldKind::Edge: {
+      // The side opposite the smallest barycentric, at the other two's proportion.
+      const auto k = static_cast<std::size_t>(std::min_element(b.begin(), b.end()) - b.begin());
+      const std::uint32_t from = corners[(k + 1) % 3], to = corners[(k + 2) % 3];
+      const double t = b[(k + 2) % 3] / (b[(k + 1) % 3] + b[(k + 2) % 3]);
+      for (std::uint32_t h : mesh.outgoing_halfedges(from)) {
+        if (mesh.target(h) != to) continue;
+        const std::uint32_t e = mesh.edge_of(h);
+        return {SurfacePoint::edge(e, mesh.edge_halfedge(e) == h ? t : 1 - t)};
+      }
+      return {p};  // unreachable for a face's own side
+    }
+    case FieldKind::Face:
+      return {p};
+    case FieldKind::ThreeSources:
+      return {p, sampler.draw(rng), sampler.draw(rng)};
+  }
+  return {p};
+}
 
 struct ErrorStats {
   std::size_t count = 0;
@@ -451,15 +487,19 @@ void run_eval(const EvalArgs& args) {
     const std::size_t n = std::min(per_source, args.pairs - k * per_source);
     for (std::size_t j = 0; j < n; ++j) targets[k].push_back(sampler.draw(rng));
   }
-  std::vector<SurfacePoint> field_sources(args.fields);
-  for (SurfacePoint& p : field_sources) p = sampler.draw(rng);
+  // Field k has kind k % kFieldKinds.
+  const std::size_t num_fields = args.fields * kFieldKinds;
+  std::vector<std::vector<SurfacePoint>> field_sources(num_fields);
+  for (std::size_t k = 0; k < num_fields; ++k) {
+    field_sources[k] = field_sources_of_kind(static_cast<FieldKind>(k % kFieldKinds), mesh, sampler, rng);
+  }
 
   // Exact references and fast marching, in parallel over sources (untimed).
   std::vector<std::vector<double>> exact(num_sources), fmm(num_sources);
-  std::vector<std::vector<double>> field_exact(args.fields), field_fmm(args.fields);
+  std::vector<std::vector<double>> field_exact(num_fields), field_fmm(num_fields);
   std::fprintf(stderr, "geoprox: eval: exact references for %zu sources and %zu fields...\n",
-               num_sources, args.fields);
-  const auto total = static_cast<std::int64_t>(num_sources + args.fields);
+               num_sources, num_fields);
+  const auto total = static_cast<std::int64_t>(num_sources + num_fields);
 #pragma omp parallel
   {
     ExactGeodesicSolver solver(mesh, g.geometry);
@@ -468,14 +508,17 @@ void run_eval(const EvalArgs& args) {
     for (std::int64_t k = 0; k < total; ++k) {
       const auto u = static_cast<std::size_t>(k);
       const bool is_field = u >= num_sources;
-      const SurfacePoint& s = is_field ? field_sources[u - num_sources] : sources[u];
-      solver.solve(s);
-      if (args.fmm) marching.solve(s);
       if (is_field) {
+        std::vector<GeodesicSource> from;
+        for (const SurfacePoint& p : field_sources[u - num_sources]) from.push_back({p, 0});
+        solver.solve(from);
+        if (args.fmm) marching.solve(from);
         field_exact[u - num_sources] = solver.vertex_distances();
         if (args.fmm) field_fmm[u - num_sources] = marching.vertex_distances();
         continue;
       }
+      solver.solve(sources[u]);
+      if (args.fmm) marching.solve(sources[u]);
       for (const SurfacePoint& t : targets[u]) {
         double d = kInfinity;
         try {
@@ -533,15 +576,31 @@ void run_eval(const EvalArgs& args) {
     }
   }
   std::vector<double> field_approx, field_reference, field_fmm_values;
-  for (std::size_t k = 0; k < args.fields; ++k) {
+  std::array<std::vector<double>, kFieldKinds> kind_approx, kind_reference;
+  for (std::size_t k = 0; k < num_fields; ++k) {
     const auto start = Clock::now();
-    const DistanceField f = query.field(std::span<const SurfacePoint>(&field_sources[k], 1), scratch);
+    const DistanceField f = query.field(field_sources[k], scratch);
     field_ms.push_back(ms_since(start));
     for (std::size_t v = 0; v < f.distances.size(); ++v) {
       field_approx.push_back(f.distances[v]);
       field_reference.push_back(field_exact[k][v]);
       field_fmm_values.push_back(args.fmm ? field_fmm[k][v] : kInfinity);
+      kind_approx[k % kFieldKinds].push_back(f.distances[v]);
+      kind_reference[k % kFieldKinds].push_back(field_exact[k][v]);
     }
+  }
+  std::array<ErrorStats, kFieldKinds> kind_err;
+  for (std::size_t k = 0; k < kFieldKinds; ++k) kind_err[k] = error_stats(kind_approx[k], kind_reference[k]);
+  // The vertex behind the worst field error, and its field's sources.
+  const ErrorStats field_err = error_stats(field_approx, field_reference);
+  std::string worst_field = "none";
+  double worst_field_exact = 0, worst_field_graph = 0;
+  if (field_err.worst != SIZE_MAX) {
+    const std::size_t nv = mesh.num_vertices();
+    worst_field = "v:" + std::to_string(field_err.worst % nv) + " from";
+    for (const SurfacePoint& p : field_sources[field_err.worst / nv]) worst_field += " " + p.to_string();
+    worst_field_exact = field_reference[field_err.worst];
+    worst_field_graph = field_approx[field_err.worst];
   }
 
   const ErrorStats pair_err = error_stats(approx, reference);
@@ -552,7 +611,6 @@ void run_eval(const EvalArgs& args) {
   const SurfacePoint& worst_t = targets[worst / per_source][worst % per_source];
   const std::string worst_pair = pair_err.worst == SIZE_MAX ? std::string("none")
                                                  : worst_s.to_string() + " " + worst_t.to_string();
-  const ErrorStats field_err = error_stats(field_approx, field_reference);
   const ErrorStats field_fmm_err = error_stats(field_fmm_values, field_reference);
   const ProximityGraphView view = g.file.view();
   // Theorem 4.2 bounds every pair's relative error when it is finite.
@@ -597,8 +655,17 @@ void run_eval(const EvalArgs& args) {
         100 * pair_fmm.p50, 100 * pair_fmm.p99, 100 * pair_fmm.max);
   }
   add("field error     %zu fields, mean %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
-      args.fields, 100 * field_err.mean, 100 * field_err.p99, 100 * field_err.max,
+      num_fields, 100 * field_err.mean, 100 * field_err.p99, 100 * field_err.max,
       field_err.below_exact);
+  for (std::size_t k = 0; k < kFieldKinds; ++k) {
+    add("  %-6s sources mean %.4f%%  p99 %.4f%%  max %.4f%%  (below exact: %zu)\n",
+        kFieldKindNames[k], 100 * kind_err[k].mean, 100 * kind_err[k].p99, 100 * kind_err[k].max,
+        kind_err[k].below_exact);
+  }
+  if (field_err.worst != SIZE_MAX) {
+    add("worst field     %s  (exact %.9g, graph %.9g, %.2f link radii)\n", worst_field.c_str(),
+        worst_field_exact, worst_field_graph, worst_field_exact / query.link_radius());
+  }
   if (args.fmm) {
     add("field fmm       mean %.4f%%  p99 %.4f%%  max %.4f%%\n", 100 * field_fmm_err.mean,
         100 * field_fmm_err.p99, 100 * field_fmm_err.max);
@@ -634,7 +701,13 @@ void run_eval(const EvalArgs& args) {
         pair_fmm.p50, pair_fmm.p99, pair_fmm.max);
     add("\"fields\":%zu,\"field_error\":{\"mean\":%.6g,\"p99\":%.6g,\"max\":%.6g,"
         "\"below_exact\":%zu},",
-        args.fields, field_err.mean, field_err.p99, field_err.max, field_err.below_exact);
+        num_fields, field_err.mean, field_err.p99, field_err.max, field_err.below_exact);
+    add("%s", "\"field_error_by_source\":{");
+    for (std::size_t k = 0; k < kFieldKinds; ++k) {
+      add("\"%s\":{\"mean\":%.6g,\"p99\":%.6g,\"max\":%.6g,\"below_exact\":%zu}%s",
+          kFieldKindNames[k], kind_err[k].mean, kind_err[k].p99, kind_err[k].max,
+          kind_err[k].below_exact, k + 1 < kFieldKinds ? "," : "},");
+    }
     add("\"field_fmm_error\":{\"mean\":%.6g,\"p99\":%.6g,\"max\":%.6g},", field_fmm_err.mean,
         field_fmm_err.p99, field_fmm_err.max);
     add("\"p2p_ms\":{\"p50\":%.6g,\"p99\":%.6g},\"path_ms\":{\"p50\":%.6g,\"p99\":%.6g},",
@@ -792,7 +865,7 @@ void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
   add_metric_option(*eval, eval_args->metric);
   eval->add_option("--pairs", eval_args->pairs, "Random point pairs (uniform by area)")
       ->check(CLI::PositiveNumber);
-  eval->add_option("--fields", eval_args->fields, "Random sources for distance fields");
+  eval->add_option("--fields", eval_args->fields, "Distance fields of each kind of source: a vertex, an edge point, a face point and three face points (their corner, side and face drawn uniformly by area)");
   eval->add_option("--paths", eval_args->paths, "Pairs also queried for their path");
   eval->add_option("--seed", eval_args->seed, "Seed of the random points (same seed, same points)");
   eval->add_flag("--json", eval_args->json, "End with one JSON line holding every figure");

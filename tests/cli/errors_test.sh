@@ -51,6 +51,14 @@ expect_geoprox_error_matching 2 'face 9999.*out of range|FaceOutOfRange' exact "
 expect_geoprox_error_matching 2 'vertex 4|VertexOutOfRange' exact "$mesh" --source v:4
 expect_geoprox_error_matching 2 'edge 77|EdgeOutOfRange' exact "$mesh" --source v:0 --to e:77:0.5
 expect_geoprox_error_matching 2 'BadBarycentric|barycentric' exact "$mesh" --source f:0:0.5:0.5:0.5
+# Barycentrics rounded to six decimals (summing to 1.000001) are accepted and divided by their
+# sum: the distance from corner 0 is that of the renormalised point.
+expect_geoprox_ok "$tmp/rounded" exact "$mesh" --source f:0:0.576910:0.407899:0.015192 --to v:0
+awk '$1 == "distance" {
+  x = (0.407899 + 0.015192) / 1.000001; y = 0.015192 / 1.000001; d = $2 - sqrt(x * x + y * y)
+  exit !(d < 1e-12 && d > -1e-12) }' "$tmp/rounded" ||
+  fail "f:0:0.576910:0.407899:0.015192 is not the renormalised point: $(head -n 1 "$tmp/rounded")"
+pass
 expect_geoprox_error_matching 2 'BadEdgeParameter|parameter' exact "$mesh" --source e:0:1.5
 
 # Output that cannot be written: exit 2, nothing created.

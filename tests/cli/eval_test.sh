@@ -27,7 +27,12 @@ tail -n 1 "$tmp/a" >"$tmp/a.json"
 python3 - "$tmp/a.json" <<'EOF' || fail "eval figures: $(cat "$tmp/a.json")"
 import json, math, sys
 r = json.load(open(sys.argv[1]))
-assert r["pairs"] == 200 and r["unreachable"] == 0 and r["fields"] == 2, r
+# --fields 2: two fields of each kind of source (vertex, edge, face, three points).
+assert r["pairs"] == 200 and r["unreachable"] == 0 and r["fields"] == 8, r
+kinds = r["field_error_by_source"]
+assert sorted(kinds) == ["edge", "face", "multi", "vertex"], kinds
+for kind, e in kinds.items():
+    assert e["below_exact"] == 0 and 0 < e["mean"] < 0.03 and e["max"] >= e["p99"] >= 0, (kind, e)
 # Every graph answer is the length of a real path: never below the exact distance.
 assert r["error"]["below_exact"] == 0 and r["field_error"]["below_exact"] == 0, r
 # Theorem 4.2 (finite on spot) holds for every pair.

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -34,6 +35,7 @@
 #include "core/exact_geodesic.h"
 #include "core/mesh_io.h"
 #include "tests/core/test_meshes.h"
+#include "tests/core/test_support.h"
 
 namespace geoprox {
 namespace {
@@ -1496,6 +1498,29 @@ TEST(ExactGeodesicInput, InvalidSourcesThrow) {
   EXPECT_THROW((void)solver.distance(SurfacePoint::face(99999, 1, 0, 0)), InvalidInput);
 }
 
+TEST(ExactGeodesicInput, GoalDirectedSolveOnAGridEnds) {
+  // Found by the spline property test (geodesic_spline_test.cpp): on a flat grid, a
+  // goal-directed solve to one target with no radius, from a face point a rounding error away
+  // from a corner, kept propagating and never ended.
+  const TestMesh tm = make_test_mesh(flat_grid({.nx = 13, .ny = 7, .hx = 0.013, .hy = 0.013}));
+  const SurfacePoint from = SurfacePoint::face(62, 7.4014868308343812e-16, 0.99999999999999889,
+                                               3.7007434154171842e-16);
+  const SurfacePoint to = SurfacePoint::edge(28, 0.33333333333333326);
+  ExactGeodesicSolver solver(*tm.mesh, *tm.geometry);
+  ExactGeodesicSolver::Options directed;
+  directed.stop_after_targets = 1;
+  directed.queue_halfedges = true;
+  directed.goal = to.position(*tm.mesh);
+  QueryInterrupt deadline;  // a hang guard, not a timing
+  deadline.deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  directed.interrupt = &deadline;
+  solver.solve(one(from), std::vector<SurfacePoint>{to}, directed);
+  ASSERT_EQ(solver.settled_targets().size(), 1u);
+  const double straight = dist(from.position(*tm.mesh), to.position(*tm.mesh));
+  EXPECT_NEAR(solver.settled_target_distances()[0], straight, 1e-12);
+  EXPECT_NEAR(solver.path_to(to).length, straight, 1e-12);
+}
+
 TEST(ExactGeodesicInput, PreparedTargets) {
   const TestMesh tm = jittered_grid(), other = jittered_grid();
   const std::vector<SurfacePoint> bad_vertex{SurfacePoint::vertex(0), SurfacePoint::vertex(100000)};
@@ -1552,9 +1577,7 @@ std::optional<std::string> find_mesh(const std::string& name, bool repo_only = f
   const std::string repo = std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
   if (std::filesystem::exists(repo)) return repo;
   if (repo_only) return std::nullopt;
-  const std::string shared = std::string(GEOPROX_SHARED_MESHES) + "/" + name;
-  if (std::filesystem::exists(shared)) return shared;
-  return std::nullopt;
+  return test_support::corpus_mesh_file(name);
 }
 
 struct LoadedMesh {
@@ -1586,7 +1609,7 @@ class ExactGeodesicRealMesh : public ::testing::TestWithParam<RealMeshCase> {
  protected:
   void SetUp() override {
     lm_ = load_cached(GetParam().name);
-    ASSERT_TRUE(lm_) << GetParam().name << " is neither in data/meshes nor in " << GEOPROX_SHARED_MESHES;
+    ASSERT_TRUE(lm_) << GetParam().name << " is neither in data/meshes nor in " << test_support::corpus_dir();
   }
   const TriangleMesh& mesh() const { return *lm_->mesh; }
   const IntrinsicGeometry& geometry() const { return *lm_->geometry; }

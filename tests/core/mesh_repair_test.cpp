@@ -20,6 +20,9 @@
 namespace geoprox {
 namespace {
 
+using test_support::corpus_dir;
+using test_support::corpus_mesh_file;
+using test_support::corpus_skip_reason;
 using test_support::shipped_mesh_file;
 using test_support::test_data_file;
 
@@ -297,8 +300,11 @@ TEST(MeshRepair, RefusesWhatIsNoMesh) {
 }
 
 TEST(MeshRepair, RepairsTheDirtyMeshesSoThatTheyLoad) {
-  // pig.stl is shipped; the others are not redistributable and stay in ../shared/meshes.
-  const std::string shared = GEOPROX_SHARED_MESHES;
+  // pig.stl is shipped; the others are not redistributable: they are in the optional corpus only.
+  for (const char* name : {"teapot.obj", "truck.obj", "happy-buddha-dirty.ply"}) {
+    if (!corpus_mesh_file(name)) GTEST_SKIP() << corpus_skip_reason(name);
+  }
+  const std::string shared = corpus_dir();
   struct Case {
     std::string path;
     std::size_t duplicates, flipped, split;

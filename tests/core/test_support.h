@@ -7,7 +7,10 @@
 #include <bit>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -65,6 +68,25 @@ inline std::string test_data_file(const std::string& name) {
 /// Path of a mesh of data/meshes/ (the repository's own copies).
 inline std::string shipped_mesh_file(const std::string& name) {
   return std::string(GEOPROX_SOURCE_DIR) + "/data/meshes/" + name;
+}
+
+/// Folder of the optional corpus of larger and non-redistributable meshes: $GEOPROX_SHARED_MESHES
+/// if set, else ../shared/meshes beside the source tree (present on the project's machines and
+/// in CI, absent from a clone elsewhere).
+inline std::string corpus_dir() {
+  if (const char* env = std::getenv("GEOPROX_SHARED_MESHES"); env && *env) return env;
+  return GEOPROX_SHARED_MESHES;
+}
+/// Path of a mesh of the optional corpus, or nothing when it is absent.
+inline std::optional<std::string> corpus_mesh_file(const std::string& name) {
+  const std::string path = corpus_dir() + "/" + name;
+  if (std::filesystem::exists(path)) return path;
+  return std::nullopt;
+}
+/// The one-line reason a test that needs the corpus skips without it.
+inline std::string corpus_skip_reason(const std::string& name) {
+  return "needs " + name + " of the optional mesh corpus, absent at " + corpus_dir() +
+         " (set GEOPROX_SHARED_MESHES)";
 }
 
 /// A mesh of data/meshes/, loaded once per call.

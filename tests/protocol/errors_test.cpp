@@ -60,6 +60,7 @@ TEST(ErrorReasons, ServerReasonsUseDistinctCodesOfTheServerRange) {
   EXPECT_EQ(error_code_of(ErrorReason::MeshNotReady), -32002);
   EXPECT_EQ(error_code_of(ErrorReason::Unreachable), -32010);
   EXPECT_EQ(error_code_of(ErrorReason::TooLarge), -32020);
+  EXPECT_EQ(error_code_of(ErrorReason::ResourceExhausted), -32021);
   EXPECT_EQ(error_code_of(ErrorReason::Overloaded), -32030);
   EXPECT_EQ(error_code_of(ErrorReason::DeadlineExceeded), -32031);
   EXPECT_EQ(error_code_of(ErrorReason::Unauthorized), -32040);

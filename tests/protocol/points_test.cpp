@@ -58,17 +58,23 @@ TEST(Points, StringForms) {
 }
 
 TEST(Points, BarycentricTolerances) {
-  // Negative down to -1e-12 and a sum off by up to 1e-9 are rounding noise, accepted as sent.
-  EXPECT_EQ(parsed(json::parse(R"({"face": 0, "bary": [-1e-12, 0.5, 0.500000000001]})")).bary,
-            (std::array<double, 3>{-1e-12, 0.5, 0.500000000001}));
-  EXPECT_NO_THROW(parsed(json::parse(R"({"face": 0, "bary": [0.3, 0.3, 0.4000000009]})")));
-  EXPECT_NO_THROW(parsed("f:0:0.3:0.3:0.3999999991"));
+  // Negative down to -1e-12 is rounding noise; a sum off by up to 1e-5 covers barycentrics
+  // rounded to six decimals. Accepted barycentrics are divided by their sum.
+  const WirePoint noisy = parsed(json::parse(R"({"face": 0, "bary": [-1e-12, 0.5, 0.500000000001]})"));
+  EXPECT_DOUBLE_EQ(noisy.bary[0], -1e-12);
+  EXPECT_NEAR(noisy.bary[0] + noisy.bary[1] + noisy.bary[2], 1, 1e-15);
+  const WirePoint rounded = parsed("f:839813:0.576910:0.407899:0.015192");  // sums to 1.000001
+  EXPECT_EQ(rounded.id, 839813u);
+  EXPECT_NEAR(rounded.bary[0], 0.576910 / 1.000001, 1e-15);
+  EXPECT_NEAR(rounded.bary[0] + rounded.bary[1] + rounded.bary[2], 1, 1e-15);
+  EXPECT_NO_THROW(parsed(json::parse(R"({"face": 0, "bary": [0.3, 0.3, 0.40000999]})")));
+  EXPECT_NO_THROW(parsed("f:0:0.3:0.3:0.39999001"));
   expect_refused(json::parse(R"({"face": 0, "bary": [-2e-12, 0.5, 0.500000000002]})"),
                  ErrorReason::BadBarycentric,
                  "barycentric coordinate -2e-12 must be finite and "
                  "non-negative");
-  expect_refused(json::parse(R"({"face": 0, "bary": [0.3, 0.3, 0.4000000011]})"),
-                 ErrorReason::BadBarycentric, "sum to 1.0000000011, not 1");
+  expect_refused(json::parse(R"({"face": 0, "bary": [0.3, 0.3, 0.40002]})"),
+                 ErrorReason::BadBarycentric, "sum to 1.00002, not 1 (tolerance 1e-5)");
   expect_refused("f:0:0.2:0.3:0.6", ErrorReason::BadBarycentric, "sum to 1.1, not 1");
   expect_refused("f:0:-0.5:0.5:1", ErrorReason::BadBarycentric, "-0.5");
 }

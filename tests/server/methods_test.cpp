@@ -298,6 +298,9 @@ TEST_F(MethodsTest, ServerInfoHealthMetrics) {
             std::string::npos);
   EXPECT_NE(text.find("geoprox_request_duration_seconds_bucket{method=\"geodesic.distance\""),
             std::string::npos);
+  // Bucket bounds in their shortest form that reads back as the same double.
+  EXPECT_NE(text.find("method=\"geodesic.distance\",le=\"0.00025\"}"), std::string::npos);
+  EXPECT_EQ(text.find("0.00025000000000000001"), std::string::npos);
   EXPECT_NE(text.find("geoprox_mesh_ready{mesh=\"spot\"} 1"), std::string::npos);
   EXPECT_NE(text.find("geoprox_queue_depth"), std::string::npos);
 }

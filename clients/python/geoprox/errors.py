@@ -50,6 +50,7 @@ class Reason:
     NOT_FOUND = "NotFound"
     UNREACHABLE = "Unreachable"
     TOO_LARGE = "TooLarge"
+    RESOURCE_EXHAUSTED = "ResourceExhausted"
     OVERLOADED = "Overloaded"
     DEADLINE_EXCEEDED = "DeadlineExceeded"
     SHUTTING_DOWN = "ShuttingDown"
