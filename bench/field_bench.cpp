@@ -60,8 +60,9 @@ int main(int argc, char** argv) {
     std::vector<std::vector<SurfacePoint>> fields;
     for (int k = 0; k < settings.fields; ++k) {
       auto vertex = [&] {
-        std::uint32_t v = rng.below(static_cast<std::uint32_t>(mesh.num_vertices()));
-        while (mesh.is_isolated_vertex(v)) v = rng.below(static_cast<std::uint32_t>(mesh.num_vertices()));
+        const auto n = static_cast<std::uint32_t>(mesh.num_vertices());
+        std::uint32_t v = rng.below(n);
+        while (mesh.is_isolated_vertex(v)) v = rng.below(n);
         return SurfacePoint::vertex(v);
       };
       if (k % 3 == 2) fields.push_back({vertex(), vertex(), vertex()});

@@ -941,8 +941,6 @@ PairAnswer GeodesicQuery::answer(const SurfacePoint& s, const SurfacePoint& t,
   return a;
 }
 
-// Whether a pair with this graph answer is solved exactly: under exact_within rho, under the
-// mesh's own lengths (the goal's straight-line bound needs them).
 // kFieldExactRadii rho where near pairs are answered exactly (exact_within > 0, under the
 // mesh's own lengths), else rho.
 double GeodesicQuery::field_exact_radius() const {
@@ -950,6 +948,8 @@ double GeodesicQuery::field_exact_radius() const {
   return (wide ? kFieldExactRadii : 1.0) * link_radius_;
 }
 
+// Whether a pair with this graph answer is solved exactly: under exact_within rho, under the
+// mesh's own lengths (the goal's straight-line bound needs them).
 bool GeodesicQuery::solves_exactly(double graph_distance) const {
   return options_.exact_within > 0 && geometry_->lengths_are_chords() &&
          graph_distance < options_.exact_within * link_radius_;

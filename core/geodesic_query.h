@@ -25,8 +25,8 @@
 // graph path bends at one or two samples instead of several. The rule depends on each point
 // alone and on the graph's answer, which is symmetric: answers are symmetric. A distance field
 // is exact out to 1.75 rho around each source (rho with exact_within = 0), and every sample in
-// that disk links the source to the graph; beyond it a vertex takes the best of its cover row, never
-// longer than the paper's answer (a point-to-point query with refine_within = exact_within = 0).
+// that disk links the source to the graph; beyond it a vertex takes the best of its cover row,
+// never longer than the paper's answer (a query with refine_within = exact_within = 0).
 //
 // Thread safety: a GeodesicQuery is immutable after construction and may be shared by any
 // number of threads; each thread passes its own QueryScratch, which holds every buffer a query

@@ -159,8 +159,9 @@ SurfacePoint parse_surface_point(const std::string& text) {
     return SurfacePoint::edge(parse_id(text, fields[1]), parse_number(text, fields[2]));
   }
   if (kind == "f" && fields.size() == 5) {
-    SurfacePoint p = SurfacePoint::face(parse_id(text, fields[1]), parse_number(text, fields[2]),
-                                        parse_number(text, fields[3]), parse_number(text, fields[4]));
+    SurfacePoint p =
+        SurfacePoint::face(parse_id(text, fields[1]), parse_number(text, fields[2]),
+                           parse_number(text, fields[3]), parse_number(text, fields[4]));
     const double sum = p.bary[0] + p.bary[1] + p.bary[2];
     if (std::abs(sum - 1) <= kBarycentricSumTolerance) {
       for (double& b : p.bary) b /= sum;

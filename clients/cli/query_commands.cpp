@@ -491,7 +491,8 @@ void run_eval(const EvalArgs& args) {
   const std::size_t num_fields = args.fields * kFieldKinds;
   std::vector<std::vector<SurfacePoint>> field_sources(num_fields);
   for (std::size_t k = 0; k < num_fields; ++k) {
-    field_sources[k] = field_sources_of_kind(static_cast<FieldKind>(k % kFieldKinds), mesh, sampler, rng);
+    const auto kind = static_cast<FieldKind>(k % kFieldKinds);
+    field_sources[k] = field_sources_of_kind(kind, mesh, sampler, rng);
   }
 
   // Exact references and fast marching, in parallel over sources (untimed).
@@ -590,7 +591,9 @@ void run_eval(const EvalArgs& args) {
     }
   }
   std::array<ErrorStats, kFieldKinds> kind_err;
-  for (std::size_t k = 0; k < kFieldKinds; ++k) kind_err[k] = error_stats(kind_approx[k], kind_reference[k]);
+  for (std::size_t k = 0; k < kFieldKinds; ++k) {
+    kind_err[k] = error_stats(kind_approx[k], kind_reference[k]);
+  }
   // The vertex behind the worst field error, and its field's sources.
   const ErrorStats field_err = error_stats(field_approx, field_reference);
   std::string worst_field = "none";
@@ -598,7 +601,10 @@ void run_eval(const EvalArgs& args) {
   if (field_err.worst != SIZE_MAX) {
     const std::size_t nv = mesh.num_vertices();
     worst_field = "v:" + std::to_string(field_err.worst % nv) + " from";
-    for (const SurfacePoint& p : field_sources[field_err.worst / nv]) worst_field += " " + p.to_string();
+    for (const SurfacePoint& p : field_sources[field_err.worst / nv]) {
+      worst_field += ' ';
+      worst_field += p.to_string();
+    }
     worst_field_exact = field_reference[field_err.worst];
     worst_field_graph = field_approx[field_err.worst];
   }
@@ -865,7 +871,9 @@ void add_query_commands(CLI::App& app, std::vector<Command>& commands) {
   add_metric_option(*eval, eval_args->metric);
   eval->add_option("--pairs", eval_args->pairs, "Random point pairs (uniform by area)")
       ->check(CLI::PositiveNumber);
-  eval->add_option("--fields", eval_args->fields, "Distance fields of each kind of source: a vertex, an edge point, a face point and three face points (their corner, side and face drawn uniformly by area)");
+  eval->add_option("--fields", eval_args->fields,
+                   "Distance fields of each kind of source: a vertex, an edge point, a face point "
+                   "and three face points (corner, side and face drawn uniformly by area)");
   eval->add_option("--paths", eval_args->paths, "Pairs also queried for their path");
   eval->add_option("--seed", eval_args->seed, "Seed of the random points (same seed, same points)");
   eval->add_flag("--json", eval_args->json, "End with one JSON line holding every figure");

@@ -40,8 +40,8 @@ def attempt(name, call):
         call()
         answered.append(f"{name} ({time.monotonic() - start:.1f} s)")
     except ServerError as e:
-        assert e.reason in (Reason.TOO_LARGE, Reason.RESOURCE_EXHAUSTED, Reason.DEADLINE_EXCEEDED), \
-            (name, e.reason, str(e))
+        allowed = (Reason.TOO_LARGE, Reason.RESOURCE_EXHAUSTED, Reason.DEADLINE_EXCEEDED)
+        assert e.reason in allowed, (name, e.reason, str(e))
         refused.append(f"{name}: {e.reason}")
 
 side = min(points // 2, int(limits["max_matrix_pairs"] ** 0.5), 100)

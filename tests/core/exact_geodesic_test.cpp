@@ -1609,7 +1609,8 @@ class ExactGeodesicRealMesh : public ::testing::TestWithParam<RealMeshCase> {
  protected:
   void SetUp() override {
     lm_ = load_cached(GetParam().name);
-    ASSERT_TRUE(lm_) << GetParam().name << " is neither in data/meshes nor in " << test_support::corpus_dir();
+    ASSERT_TRUE(lm_) << GetParam().name << " is neither in data/meshes nor in "
+                     << test_support::corpus_dir();
   }
   const TriangleMesh& mesh() const { return *lm_->mesh; }
   const IntrinsicGeometry& geometry() const { return *lm_->geometry; }

@@ -16,6 +16,7 @@
 
 #include "core/errors.h"
 #include "core/exact_geodesic.h"
+#include "core/exponential_map.h"
 #include "core/geodesic_query.h"
 #include "core/proximity_graph.h"
 #include "tests/core/application_test_support.h"
@@ -127,7 +128,8 @@ TEST(GeodesicSpline, GraphGeodesicsOnAFlatGridGiveThePlanarCurves) {
 
 // ---------------------------------------------------------------------------------------------
 // Random flat grids: geodesics through vertices whose angle sum is 2 pi, along boundary edges and
-// along chains of collinear edges, with control points on vertices, edges and faces.
+// along chains of collinear edges, with control points on vertices, edges and faces; splines in
+// both modes and the exponential map from the first control point.
 
 struct GridCase {
   std::string name;
@@ -233,11 +235,49 @@ std::vector<std::string> run_grid_cases(std::uint64_t first, std::uint64_t cases
         failures.push_back(c.name + ", " + mode_name + ": " + e.what() + ", control" + points);
       }
     }
+    // The exponential map from the first control point: on a convex grid the exact one is an
+    // isometry of the plane (distances and the distances between mapped vertices); the graph's
+    // distances are never below exact.
+    ExponentialMap map(env.query);
+    ExponentialMapOptions map_options;
+    map_options.radius = 0.4 * c.size;
+    map_options.interrupt = &deadline;
+    const std::string map_name = c.name + ", expmap from " + control[0].to_string();
+    try {
+      map_options.mode = ExponentialMapMode::Exact;
+      const ExponentialMapResult exact = map.compute(control[0], map_options);
+      map_options.mode = ExponentialMapMode::Graph;
+      const ExponentialMapResult graph = map.compute(control[0], map_options);
+      const Vec3 source = control[0].position(mesh);
+      double worst = 0;
+      const ExponentialMapVertex* previous = nullptr;
+      for (const ExponentialMapVertex& m : exact.vertices) {
+        const Vec3 at = mesh.position(m.vertex);
+        worst = std::max(worst, std::abs(m.distance - norm(at - source)));
+        if (previous) {
+          const double planar = std::hypot(m.u - previous->u, m.v - previous->v);
+          worst = std::max(worst, std::abs(planar - norm(at - mesh.position(previous->vertex))));
+        }
+        previous = &m;
+      }
+      if (c.convex && worst > 1e-9 * c.size) {
+        failures.push_back(map_name + ": exact map off the plane's by " + fmt(worst / c.size));
+      }
+      for (const ExponentialMapVertex& m : graph.vertices) {
+        if (m.distance < norm(mesh.position(m.vertex) - source) * (1 - 1e-9)) {
+          failures.push_back(map_name + ": graph distance below the straight line at v:" +
+                             std::to_string(m.vertex));
+          break;
+        }
+      }
+    } catch (const std::exception& e) {
+      failures.push_back(map_name + ": " + e.what());
+    }
   }
   return failures;
 }
 
-TEST(GeodesicSpline, RandomGridsGiveThePlanarCurvesInBothModes) {
+TEST(GeodesicSpline, RandomGridsGiveThePlanarCurvesAndMapsInBothModes) {
   const std::vector<std::string> failures = run_grid_cases(0, 120);
   for (const std::string& f : failures) ADD_FAILURE() << f;
 }

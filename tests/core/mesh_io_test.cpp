@@ -134,7 +134,8 @@ TEST(MeshIo, ShippedIdsAreFileOrder) {
 
 TEST(MeshIo, DirtySharedMeshesAreRefusedOrLoadAsDocumented) {
   // The dirty meshes are not redistributable, so they are in the optional corpus only.
-  for (const char* name : {"truck.obj", "teapot.obj", "igea.ply", "igea.off", "stanford-bunny.obj"}) {
+  for (const char* name :
+       {"truck.obj", "teapot.obj", "igea.ply", "igea.off", "stanford-bunny.obj"}) {
     if (!corpus_mesh_file(name)) GTEST_SKIP() << corpus_skip_reason(name);
   }
   const std::string shared = corpus_dir();

@@ -60,7 +60,8 @@ TEST(Points, StringForms) {
 TEST(Points, BarycentricTolerances) {
   // Negative down to -1e-12 is rounding noise; a sum off by up to 1e-5 covers barycentrics
   // rounded to six decimals. Accepted barycentrics are divided by their sum.
-  const WirePoint noisy = parsed(json::parse(R"({"face": 0, "bary": [-1e-12, 0.5, 0.500000000001]})"));
+  const WirePoint noisy =
+      parsed(json::parse(R"({"face": 0, "bary": [-1e-12, 0.5, 0.500000000001]})"));
   EXPECT_DOUBLE_EQ(noisy.bary[0], -1e-12);
   EXPECT_NEAR(noisy.bary[0] + noisy.bary[1] + noisy.bary[2], 1, 1e-15);
   const WirePoint rounded = parsed("f:839813:0.576910:0.407899:0.015192");  // sums to 1.000001

@@ -97,7 +97,7 @@ TEST(DecodeRequest, InvalidParamsAndBadPoints) {
   EXPECT_EQ(bary.code, -32602);
   EXPECT_EQ(bary.reason, "BadBarycentric");
   EXPECT_EQ(bary.message,
-            "params.target: barycentric coordinates sum to 1.1, not 1 (tolerance 1e-9)");
+            "params.target: barycentric coordinates sum to 1.1, not 1 (tolerance 1e-5)");
 }
 
 TEST(DecodeRequest, EnvelopeErrorsAreAnsweredEvenWithoutAnId) {
