@@ -129,7 +129,8 @@ TEST(GeodesicSpline, GraphGeodesicsOnAFlatGridGiveThePlanarCurves) {
 // ---------------------------------------------------------------------------------------------
 // Random flat grids: geodesics through vertices whose angle sum is 2 pi, along boundary edges and
 // along chains of collinear edges, with control points on vertices, edges and faces; splines in
-// both modes and the exponential map from the first control point.
+// both modes, paths between the first two control points, and the exponential map from the
+// first.
 
 struct GridCase {
   std::string name;
@@ -235,6 +236,29 @@ std::vector<std::string> run_grid_cases(std::uint64_t first, std::uint64_t cases
         failures.push_back(c.name + ", " + mode_name + ": " + e.what() + ", control" + points);
       }
     }
+    // Paths between the first two control points: the graph's path is as long as its distance
+    // and never shorter than the straight line; the exact path is the straight line on a convex
+    // grid.
+    try {
+      QueryScratch scratch = env.query.make_scratch();
+      scratch.set_interrupt(&deadline);
+      const double straight = norm(positions[1] - positions[0]);
+      const PathResult graph_path = env.query.path(control[0], control[1], scratch);
+      const PathResult exact_path = env.query.exact_path(control[0], control[1], scratch);
+      double length = 0;
+      for (std::size_t k = 1; k < graph_path.points.size(); ++k) {
+        length += norm(graph_path.points[k].position - graph_path.points[k - 1].position);
+      }
+      if (std::abs(length - graph_path.distance) > 1e-9 * c.size ||
+          graph_path.distance < straight - 1e-9 * c.size ||
+          (c.convex && std::abs(exact_path.distance - straight) > 1e-9 * c.size)) {
+        failures.push_back(c.name + ", path" + points + ": graph " + fmt(graph_path.distance) +
+                           " (polyline " + fmt(length) + "), exact " +
+                           fmt(exact_path.distance) + ", straight " + fmt(straight));
+      }
+    } catch (const std::exception& e) {
+      failures.push_back(c.name + ", path" + points + ": " + e.what());
+    }
     // The exponential map from the first control point: on a convex grid the exact one is an
     // isometry of the plane (distances and the distances between mapped vertices); the graph's
     // distances are never below exact.
@@ -277,7 +301,7 @@ std::vector<std::string> run_grid_cases(std::uint64_t first, std::uint64_t cases
   return failures;
 }
 
-TEST(GeodesicSpline, RandomGridsGiveThePlanarCurvesAndMapsInBothModes) {
+TEST(GeodesicSpline, RandomGridsGivePlanarSplinesPathsAndMaps) {
   const std::vector<std::string> failures = run_grid_cases(0, 120);
   for (const std::string& f : failures) ADD_FAILURE() << f;
 }
