@@ -126,6 +126,8 @@ struct QueryScratch::Impl {
   std::vector<double> potential;  ///< goal direction: p(i), kNoPotential until computed
   std::vector<std::uint32_t> origin;  ///< fields: which source's links the label comes from
   std::vector<double> dense_label;    ///< fields: every sample's label, kInfinity if untouched
+  std::vector<GeodesicSource> field_sources;  ///< fields: the sources of the disks' solve
+  std::vector<char> field_linked;     ///< fields: a source has a sample within rho
   std::vector<HeapEntry> heap[2];
   QueryLinks links_s, links_t;
   std::vector<QueryLinks> many;  ///< fields and matrices: one per point
@@ -1288,6 +1290,64 @@ void GeodesicQuery::graph_distances_from(QueryScratch::Impl& s,
   }
 }
 
+// The exact values a field takes from `solver`: every vertex it settled within `exact_within`
+// (and max_distance).
+void GeodesicQuery::add_field_region(const ExactGeodesicSolver& solver, double exact_within,
+                                     double max_distance, Links& out) const {
+  for (std::uint32_t v : solver.touched_vertices()) {
+    const double d = solver.distance(v);
+    if (d <= max_distance && d <= exact_within) out.region.emplace_back(v, d);
+  }
+}
+
+// One exact solve from all sources at once out to `radius`: every vertex inside is exact (its
+// nearest source's), and every sample inside links its nearest source to the graph at its exact
+// distance, so that the graph starts from the whole disks and vertices just beyond them are not
+// answered through a path of few hops, where the paper's answers err most. The usual links of
+// a point are all inside (a cover row or a link solve's covers reach rho), except for a point
+// with no sample within rho, which is linked as point-to-point queries link it.
+void GeodesicQuery::link_field_disks(std::span<const SurfacePoint> sources, double radius,
+                                     double max_distance, QueryScratch::Impl& w) const {
+  w.field_sources.clear();
+  for (const SurfacePoint& p : sources) w.field_sources.push_back({p, 0.0});
+  ExactGeodesicOptions bounded;
+  bounded.max_distance = radius;
+  bounded.queue_halfedges = true;
+  bounded.interrupt = w.interrupt;
+  w.solver_s.solve(w.field_sources, {}, bounded);
+  w.field_linked.assign(sources.size(), 0);
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    Links& l = w.many[k];
+    l.samples.clear();
+    l.via.clear();
+    l.region.clear();
+    l.longest = 0;
+  }
+  for (std::uint32_t v : w.solver_s.touched_vertices()) {
+    const double d = w.solver_s.distance(v);
+    if (!(d <= radius)) continue;
+    const auto k = static_cast<std::size_t>(w.solver_s.nearest_source(v));
+    Links& l = w.many[k];
+    if (d <= max_distance) l.region.emplace_back(v, d);
+    if (sample_of_vertex_[v] < 0) continue;
+    l.samples.emplace_back(static_cast<std::uint32_t>(sample_of_vertex_[v]), d);
+    l.via.emplace_back(kDirect, 0.0);
+    l.longest = std::max(l.longest, d);
+    if (d <= link_radius_) w.field_linked[k] = 1;
+  }
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    if (w.field_linked[k]) continue;
+    Links& extra = w.links_s;
+    solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
+    const double exact_within = link_solved(sources[k], w.solver_s, w, extra);
+    Links& l = w.many[k];
+    l.samples.insert(l.samples.end(), extra.samples.begin(), extra.samples.end());
+    l.via.insert(l.via.end(), extra.via.begin(), extra.via.end());
+    // With no sample within rho, the solver holds the solve out to the nearest one: exact.
+    if (exact_within == kInfinity) add_field_region(w.solver_s, exact_within, max_distance, l);
+  }
+}
+
 DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryScratch& scratch,
                                    const DistanceFieldOptions& options) const {
   if (sources.empty()) throw InvalidInput("NoSources", "a distance field needs a source");
@@ -1304,33 +1364,19 @@ DistanceField GeodesicQuery::field(std::span<const SurfacePoint> sources, QueryS
   if (w.many.size() < sources.size()) w.many.resize(sources.size());
   std::vector<const Links*> links(sources.size());
   const double exact_radius = field_exact_radius();
-  for (std::size_t k = 0; k < sources.size(); ++k) {
-    Links& l = w.many[k];
-    // One solve out to the exact radius gives the exact region and links as for point-to-point
-    // queries and, when it reaches beyond rho, a link to every sample inside at its exact
-    // distance: the graph then starts from the whole disk, so that vertices just beyond it are
-    // not answered through a path of few hops, where the paper's answers err most.
-    ExactGeodesicOptions bounded;
-    bounded.max_distance = exact_radius;
-    bounded.queue_halfedges = true;
-    bounded.interrupt = w.interrupt;
-    w.solver_s.solve(sources[k], bounded);
-    // kInfinity when no sample lies within rho: the solver then holds the solve out to the
-    // nearest sample, every value of which is exact.
-    const bool sparse = link_solved(sources[k], w.solver_s, w, l) == kInfinity;
-    const double exact_within = sparse ? kInfinity : exact_radius;
-    const bool link_disk = !sparse && exact_radius > link_radius_;
-    for (std::uint32_t v : w.solver_s.touched_vertices()) {
-      const double d = w.solver_s.distance(v);
-      if (!(d <= exact_within)) continue;
-      if (d <= options.max_distance) l.region.emplace_back(v, d);
-      if (link_disk && sample_of_vertex_[v] >= 0) {
-        l.samples.emplace_back(static_cast<std::uint32_t>(sample_of_vertex_[v]), d);
-        l.via.emplace_back(kDirect, 0.0);
-      }
+  if (exact_radius > link_radius_) {
+    link_field_disks(sources, exact_radius, options.max_distance, w);
+  } else {
+    for (std::size_t k = 0; k < sources.size(); ++k) {
+      // The paper's field: links as for point-to-point queries, from the solve out to rho that
+      // the exact region needs anyway.
+      Links& l = w.many[k];
+      solve_within_link_radius(sources[k], w.solver_s, w.interrupt);
+      add_field_region(w.solver_s, link_solved(sources[k], w.solver_s, w, l),
+                       options.max_distance, l);
     }
-    links[k] = &l;
   }
+  for (std::size_t k = 0; k < sources.size(); ++k) links[k] = &w.many[k];
   graph_distances_from(w, links, options.max_distance);
 
   const auto nv = static_cast<std::int64_t>(mesh_->num_vertices());

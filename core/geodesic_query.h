@@ -263,6 +263,10 @@ class GeodesicQuery {
   bool refines(const SurfacePoint& s, const SurfacePoint& t, double graph_distance) const;
   bool solves_exactly(double graph_distance) const;
   double field_exact_radius() const;
+  void add_field_region(const ExactGeodesicSolver& solver, double exact_within,
+                        double max_distance, Links& out) const;
+  void link_field_disks(std::span<const SurfacePoint> sources, double radius, double max_distance,
+                        QueryScratch::Impl& w) const;
   const ExactGeodesicSolver& solve_pair_exactly(const SurfacePoint& s, const SurfacePoint& t,
                                                 QueryScratch::Impl& w, double& distance) const;
   double solve_exactly(const SurfacePoint& s, const SurfacePoint& t, double graph_distance,
