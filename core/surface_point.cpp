@@ -163,7 +163,8 @@ SurfacePoint parse_surface_point(const std::string& text) {
         SurfacePoint::face(parse_id(text, fields[1]), parse_number(text, fields[2]),
                            parse_number(text, fields[3]), parse_number(text, fields[4]));
     const double sum = p.bary[0] + p.bary[1] + p.bary[2];
-    if (std::abs(sum - 1) <= kBarycentricSumTolerance) {
+    if (std::abs(sum - 1) <= kBarycentricSumTolerance &&
+        std::abs(sum - 1) > kBarycentricRoundingTolerance) {
       for (double& b : p.bary) b /= sum;
     }
     return p;

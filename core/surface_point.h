@@ -21,6 +21,8 @@ inline constexpr double kBarycentricNegativeTolerance = 1e-12;
 /// How far from 1 barycentrics may sum: three coordinates rounded to six decimals are off by up
 /// to 1.5e-6 together.
 inline constexpr double kBarycentricSumTolerance = 1e-5;
+/// Sums within this of 1 are rounding: parse_surface_point takes such barycentrics as they are.
+inline constexpr double kBarycentricRoundingTolerance = 1e-12;
 
 struct SurfacePoint {
   enum class Kind : std::uint8_t { Vertex, Edge, Face };

@@ -83,7 +83,11 @@ void check_values(WirePoint& point, std::string_view where) {
                                                              format_number(sum) +
                                                              ", not 1 (tolerance 1e-5)");
       }
-      for (double& b : point.bary) b /= sum;
+      // Sums off by rounding alone are kept as sent, so that a point written back and parsed
+      // again is the same point.
+      if (std::abs(sum - 1) > kBarycentricRoundingTolerance) {
+        for (double& b : point.bary) b /= sum;
+      }
       return;
     }
     case WirePoint::Kind::Position:

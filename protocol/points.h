@@ -50,6 +50,8 @@ struct WirePoint {
 /// rounded to six decimals (each off by up to 5e-7); accepted sums are divided out.
 inline constexpr double kBarycentricNegativeTolerance = 1e-12;
 inline constexpr double kBarycentricSumTolerance = 1e-5;
+/// Sums within this of 1 are rounding: such barycentrics are taken as they are.
+inline constexpr double kBarycentricRoundingTolerance = 1e-12;
 
 /// Parses an object or string form; `path` names the value in messages ("params.source").
 /// Throws ProtocolError (BadPoint, BadBarycentric, BadEdgeParameter, <Kind>OutOfRange).
