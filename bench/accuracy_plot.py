@@ -2,7 +2,7 @@
 """Fits and plots the accuracy sweep (bench/accuracy_sweep.py's CSV). Not a test.
 
 Fits mean relative error = a * m_P^-b and p99 = c * m_P^-d by least squares in log-log over all
-rows, prints the constants (core/proximity_graph.cpp's graph_size_for_error uses them), and
+rows, prints the constants (core/graph/proximity_graph.cpp's graph_size_for_error uses them), and
 writes an SVG plot of mean error against m_P, one line per (mesh, n_P).
 
 Usage: bench/accuracy_plot.py docs/accuracy.csv docs/accuracy.svg

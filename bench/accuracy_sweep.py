@@ -25,7 +25,7 @@ TABLE1 = [(10000, 1300, 22), (20000, 1500, 21), (50000, 2300, 18), (100000, 5000
 
 
 def table1_samples(faces: int) -> int:
-    """n_P of the paper's Table 1, interpolated like core/proximity_graph.cpp."""
+    """n_P of the paper's Table 1, interpolated like core/graph/proximity_graph.cpp."""
     if faces <= TABLE1[0][0]:
         return TABLE1[0][1]
     for (f0, n0, _), (f1, n1, _) in zip(TABLE1, TABLE1[1:]):

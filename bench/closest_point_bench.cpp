@@ -1,4 +1,4 @@
-// Benchmark of the closest-point index (core/closest_point.h). Not a test: it measures.
+// Benchmark of the closest-point index (core/mesh/closest_point.h). Not a test: it measures.
 //
 //   closest_point_bench MESH... [--queries N] [--runs R] [--leaf-size L] [--seed X]
 //
@@ -23,9 +23,9 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "core/closest_point.h"
-#include "core/mesh.h"
-#include "core/mesh_io.h"
+#include "core/mesh/closest_point.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
 
 namespace {
 

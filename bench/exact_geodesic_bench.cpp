@@ -35,11 +35,11 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "core/errors.h"
-#include "core/exact_geodesic.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
-#include "core/mesh_io.h"
+#include "core/base/errors.h"
+#include "core/geodesic/exact_geodesic.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Benchmark of fast marching (core/fast_marching.h, issue 3 section 1). Not a test: it measures.
+// Benchmark of fast marching (core/geodesic/fast_marching.h, issue 3 section 1). Not a test: it measures.
 //
 //   fast_marching_bench MESH... [--runs N] [--sources K] [--fps N] [--accuracy K] [--seed X]
 //
@@ -27,11 +27,11 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "core/exact_geodesic.h"
-#include "core/fast_marching.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
-#include "core/mesh_io.h"
+#include "core/geodesic/exact_geodesic.h"
+#include "core/geodesic/fast_marching.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
 
 namespace {
 

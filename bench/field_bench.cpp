@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "core/errors.h"
-#include "core/geodesic_query.h"
-#include "core/loaded_graph.h"
+#include "core/base/errors.h"
+#include "core/query/geodesic_query.h"
+#include "core/graph/loaded_graph.h"
 
 namespace {
 

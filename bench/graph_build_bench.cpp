@@ -38,12 +38,12 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "core/errors.h"
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
-#include "core/mesh_io.h"
-#include "core/proximity_graph.h"
+#include "core/base/errors.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
+#include "core/graph/proximity_graph.h"
 
 namespace {
 

@@ -87,9 +87,9 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "core/geodesic_query.h"
-#include "core/intrinsic_geometry.h"
-#include "core/loaded_graph.h"
+#include "core/query/geodesic_query.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/graph/loaded_graph.h"
 #include "protocol/json_rpc.h"
 
 namespace {

@@ -22,14 +22,14 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "core/errors.h"
-#include "core/exact_geodesic.h"
-#include "core/exponential_map.h"
-#include "core/geodesic_query.h"
-#include "core/geodesic_spline.h"
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/loaded_graph.h"
+#include "core/base/errors.h"
+#include "core/geodesic/exact_geodesic.h"
+#include "core/apps/exponential_map.h"
+#include "core/query/geodesic_query.h"
+#include "core/apps/geodesic_spline.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/graph/loaded_graph.h"
 
 namespace {
 

@@ -154,7 +154,7 @@ struct AdminReloadParams {
 };
 
 /// geodesic.expmap: geodesic polar coordinates of every vertex within `radius` of `source`
-/// (core/exponential_map.h).
+/// (core/apps/exponential_map.h).
 struct ExpmapParams {
   std::string mesh;
   WirePoint source;
@@ -166,7 +166,7 @@ enum class SplineKind : std::uint8_t { Bezier, BSpline };
 std::string_view spline_kind_name(SplineKind kind);  ///< "bezier", "bspline"
 
 /// geodesic.spline: a cubic Bezier (3k + 1 control points) or uniform cubic B-spline (>= 4)
-/// on the surface (core/geodesic_spline.h).
+/// on the surface (core/apps/geodesic_spline.h).
 struct SplineParams {
   std::string mesh;
   std::vector<WirePoint> control;  ///< 4 to max_points_per_request points

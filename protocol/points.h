@@ -7,7 +7,7 @@
 //   {"sample": 3}                       a sample (node) of the mesh's proximity graph
 //   {"position": [x, y, z]}             a point in space; the server snaps it to the surface
 // String forms, the command-line syntax: "v:12", "e:7:0.25", "f:5:0.2:0.3:0.5", "s:3",
-// "p:x,y,z". Ids and numbers mean the same as in core/surface_point.h and core/mesh.h.
+// "p:x,y,z". Ids and numbers mean the same as in core/mesh/surface_point.h and core/mesh/mesh.h.
 //
 // Checked here, without a mesh: shape and types (BadPoint), ids are integers in [0, 2^32)
 // (larger ones are <Kind>OutOfRange: no mesh has that many), t finite in [0, 1]
@@ -46,7 +46,7 @@ struct WirePoint {
   bool operator==(const WirePoint&) const = default;
 };
 
-/// Barycentric tolerances, the same as core/surface_point.h's. The sum's covers coordinates
+/// Barycentric tolerances, the same as core/mesh/surface_point.h's. The sum's covers coordinates
 /// rounded to six decimals (each off by up to 5e-7); accepted sums are divided out.
 inline constexpr double kBarycentricNegativeTolerance = 1e-12;
 inline constexpr double kBarycentricSumTolerance = 1e-5;

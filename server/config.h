@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "core/proximity_graph.h"
+#include "core/graph/proximity_graph.h"
 #include "protocol/limits.h"
 
 namespace geoprox::server {

@@ -19,11 +19,11 @@
 #include <optional>
 #include <string>
 
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
-#include "core/proximity_graph.h"
-#include "core/riemannian_metric.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh_io.h"
+#include "core/graph/proximity_graph.h"
+#include "core/mesh/riemannian_metric.h"
 #include "server/config.h"
 #include "server/logging.h"
 #include "server/registry.h"

@@ -7,10 +7,10 @@
 #include <cstdio>
 #include <fstream>
 
-#include "core/errors.h"
-#include "core/mesh_io.h"
-#include "core/proximity_graph.h"
-#include "core/riemannian_metric.h"
+#include "core/base/errors.h"
+#include "core/mesh/mesh_io.h"
+#include "core/graph/proximity_graph.h"
+#include "core/mesh/riemannian_metric.h"
 
 namespace geoprox::server {
 
@@ -687,7 +687,7 @@ std::vector<protocol::ReloadOutcome> Registry::reload(const std::optional<std::s
       std::string message = entry->graph_path().filename().string() + ": " + e.what();
       ErrorReason reason = ErrorReason::BadMeshFile;
       if (const auto* error = dynamic_cast<const geoprox::Error*>(&e)) {
-        if (error->reason() == "FileNotFound") reason = ErrorReason::NotFound;
+        if (error->code() == geoprox::ErrorCode::FileNotFound) reason = ErrorReason::NotFound;
       }
       message += "; the old graph stays in service";
       spdlog::error("mesh {}: reload failed: {}", entry->id(), describe_exception(e));

@@ -28,12 +28,12 @@
 #include <thread>
 #include <vector>
 
-#include "core/exponential_map.h"
-#include "core/geodesic_query.h"
-#include "core/geodesic_spline.h"
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
+#include "core/apps/exponential_map.h"
+#include "core/query/geodesic_query.h"
+#include "core/apps/geodesic_spline.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
 #include "protocol/messages.h"
 #include "server/config.h"
 

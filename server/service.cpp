@@ -8,10 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <variant>
 
-#include "core/exponential_map.h"
-#include "core/geodesic_query.h"
-#include "core/geodesic_spline.h"
-#include "core/surface_point.h"
+#include "core/apps/exponential_map.h"
+#include "core/query/geodesic_query.h"
+#include "core/apps/geodesic_spline.h"
+#include "core/mesh/surface_point.h"
 
 #ifndef GEOPROX_VERSION
 #define GEOPROX_VERSION "0.0.0"
@@ -36,22 +36,23 @@ Overloaded(Ts...) -> Overloaded<Ts...>;
 
 std::string quoted(const std::string& s) { return "\"" + s + "\""; }
 
-/// Point reasons keep their name; positions that cannot be snapped are BadPoint; any other
-/// InvalidInput reason is InvalidParams.
-ErrorReason point_reason(const std::string& core_reason) {
-  static const ErrorReason kept[] = {
-      ErrorReason::VertexOutOfRange, ErrorReason::EdgeOutOfRange,   ErrorReason::FaceOutOfRange,
-      ErrorReason::SampleOutOfRange, ErrorReason::IsolatedVertex,   ErrorReason::BadBarycentric,
-      ErrorReason::BadEdgeParameter, ErrorReason::BadPoint,
-  };
-  for (ErrorReason r : kept) {
-    if (protocol::reason_name(r) == core_reason) return r;
+/// The protocol reason of an InvalidInput: point reasons keep their name, positions that cannot
+/// be snapped and unreadable point text are BadPoint, any other reason is InvalidParams.
+ErrorReason invalid_input_reason(ErrorCode code) {
+  switch (code) {
+    case ErrorCode::VertexOutOfRange: return ErrorReason::VertexOutOfRange;
+    case ErrorCode::EdgeOutOfRange: return ErrorReason::EdgeOutOfRange;
+    case ErrorCode::FaceOutOfRange: return ErrorReason::FaceOutOfRange;
+    case ErrorCode::SampleOutOfRange: return ErrorReason::SampleOutOfRange;
+    case ErrorCode::IsolatedVertex: return ErrorReason::IsolatedVertex;
+    case ErrorCode::BadBarycentric: return ErrorReason::BadBarycentric;
+    case ErrorCode::BadEdgeParameter: return ErrorReason::BadEdgeParameter;
+    case ErrorCode::BadPoint:
+    case ErrorCode::BadPosition:
+    case ErrorCode::TooFarFromSurface:
+    case ErrorCode::BadPointSyntax: return ErrorReason::BadPoint;
+    default: return ErrorReason::InvalidParams;
   }
-  if (core_reason == "BadPosition" || core_reason == "TooFarFromSurface" ||
-      core_reason == "BadPointSyntax") {
-    return ErrorReason::BadPoint;
-  }
-  return ErrorReason::InvalidParams;
 }
 
 /// The mesh in service for `id`, or the error saying why there is none.
@@ -102,13 +103,13 @@ SurfacePoint resolve(const WirePoint& w, const LoadedMesh& m, const std::string&
     }
     p.validate(m.mesh());
     if (p.kind == SurfacePoint::Kind::Vertex && m.mesh().is_isolated_vertex(p.id)) {
-      throw InvalidInput("IsolatedVertex", "vertex " + std::to_string(p.id) +
+      throw InvalidInput(ErrorCode::IsolatedVertex, "vertex " + std::to_string(p.id) +
                                                " belongs to no face, so no geodesic reaches it");
     }
     return p;
   } catch (const InvalidInput& e) {
     // Translation only (adds the parameter's name); the request boundary catches the rest.
-    throw ProtocolError(point_reason(e.reason()), path + ": " + e.what());
+    throw ProtocolError(invalid_input_reason(e.code()), path + ": " + e.what());
   }
 }
 
@@ -328,7 +329,7 @@ ProtocolError current_error(bool draining) {
   } catch (const ProtocolError& e) {
     return e;
   } catch (const Interrupted& e) {
-    if (e.reason() == "Cancelled") {
+    if (e.code() == ErrorCode::Cancelled) {
       if (draining) {
         return ProtocolError(ErrorReason::ShuttingDown,
                              "the server is shutting down; the request was cancelled");
@@ -341,7 +342,7 @@ ProtocolError current_error(bool draining) {
   } catch (const geoprox::Unreachable& e) {
     return ProtocolError(ErrorReason::Unreachable, e.what());
   } catch (const InvalidInput& e) {
-    return ProtocolError(point_reason(e.reason()), e.what());
+    return ProtocolError(invalid_input_reason(e.code()), e.what());
   } catch (const geoprox::ResourceExhausted& e) {
     return ProtocolError(ErrorReason::ResourceExhausted, e.what());
   } catch (const geoprox::Error& e) {

@@ -15,7 +15,7 @@
 #include <optional>
 #include <string>
 
-#include "core/errors.h"
+#include "core/base/errors.h"
 #include "protocol/errors.h"
 #include "protocol/request.h"
 #include "server/config.h"

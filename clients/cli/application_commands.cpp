@@ -12,14 +12,14 @@
 #include <vector>
 
 #include "clients/cli/cli.h"
-#include "core/errors.h"
-#include "core/exponential_map.h"
-#include "core/geodesic_query.h"
-#include "core/geodesic_spline.h"
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
-#include "core/riemannian_metric.h"
+#include "core/base/errors.h"
+#include "core/apps/exponential_map.h"
+#include "core/query/geodesic_query.h"
+#include "core/apps/geodesic_spline.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh_io.h"
+#include "core/mesh/riemannian_metric.h"
 
 namespace geoprox::cli {
 namespace {
@@ -71,7 +71,7 @@ void add_common_options(CLI::App* command, CommonArgs& args) {
 
 void check_graph_given(const CommonArgs& args) {
   if (!args.exact && args.graph.empty()) {
-    throw InvalidInput("MissingGraph", "--graph FILE is required (or --exact for the exact solver)");
+    throw InvalidInput(ErrorCode::MissingGraph, "--graph FILE is required (or --exact for the exact solver)");
   }
 }
 
@@ -99,7 +99,7 @@ struct ExpmapArgs : CommonArgs {
 void run_expmap(const ExpmapArgs& args) {
   const SurfacePoint source = parse_point("--source", args.source);
   if (std::isnan(args.radius) || args.radius < 0) {
-    throw InvalidInput("BadRadius", "--radius must be a non-negative number");
+    throw InvalidInput(ErrorCode::BadRadius, "--radius must be a non-negative number");
   }
   check_graph_given(args);
   const LoadedMesh m(args.mesh, args.metric, args.exact ? "" : args.graph);

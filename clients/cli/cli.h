@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "core/mesh.h"
-#include "core/surface_point.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/surface_point.h"
 
 namespace CLI {
 class App;

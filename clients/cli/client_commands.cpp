@@ -17,8 +17,8 @@
 #include "clients/cli/cli.h"
 #include "clients/cli/result_files.h"
 #include "clients/cpp/geoprox_client.h"
-#include "core/errors.h"
-#include "core/mesh_io.h"
+#include "core/base/errors.h"
+#include "core/mesh/mesh_io.h"
 
 namespace geoprox::cli {
 namespace {
@@ -180,7 +180,7 @@ void write_result_file(const std::string& command, const RemoteArgs& args,
   if (command == "field") {
     const std::vector<double> distances = field_distances(result);
     if (distances.size() != mesh->num_vertices()) {
-      throw InvalidInput("MeshMismatch",
+      throw InvalidInput(ErrorCode::MeshMismatch,
                          "--mesh-file " + args.mesh_file + " has " +
                              std::to_string(mesh->num_vertices()) + " vertices but the daemon's '" +
                              args.mesh + "' has " + std::to_string(distances.size()) +

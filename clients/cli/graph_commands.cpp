@@ -12,12 +12,12 @@
 #include <string>
 
 #include "clients/cli/cli.h"
-#include "core/errors.h"
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
-#include "core/proximity_graph.h"
-#include "core/riemannian_metric.h"
+#include "core/base/errors.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh_io.h"
+#include "core/graph/proximity_graph.h"
+#include "core/mesh/riemannian_metric.h"
 
 namespace geoprox::cli {
 

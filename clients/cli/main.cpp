@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "clients/cli/cli.h"
-#include "core/errors.h"
+#include "core/base/errors.h"
 
 namespace geoprox::cli {
 
@@ -86,9 +86,11 @@ int main(int argc, char** argv) {
     return kExitInternal;
   } catch (const geoprox::Error& e) {
     std::string hint;
+    using geoprox::ErrorCode;
+    const ErrorCode code = e.code();
     if (dynamic_cast<const geoprox::MeshError*>(&e) &&
-        (e.reason() == "NonManifoldVertex" || e.reason() == "NonManifoldEdge" ||
-         e.reason() == "InconsistentOrientation" || e.reason() == "DegenerateFaceIndices")) {
+        (code == ErrorCode::NonManifoldVertex || code == ErrorCode::NonManifoldEdge ||
+         code == ErrorCode::InconsistentOrientation || code == ErrorCode::DegenerateFaceIndices)) {
       hint = " ('geoprox repair MESH -o OUT.obj' writes a copy that loads)";
     }
     print_diagnostic("error", std::string(e.what()) + " [" + e.reason() + "]" + hint);

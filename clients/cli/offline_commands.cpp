@@ -18,17 +18,17 @@
 #include <vector>
 
 #include "clients/cli/cli.h"
-#include "core/errors.h"
-#include "core/exact_geodesic.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
-#include "core/mesh_io.h"
-#include "core/mesh_refinement.h"
-#include "core/mesh_repair.h"
-#include "core/proximity_graph.h"
-#include "core/mesh_report.h"
-#include "core/riemannian_metric.h"
-#include "core/surface_point.h"
+#include "core/base/errors.h"
+#include "core/geodesic/exact_geodesic.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
+#include "core/mesh/mesh_refinement.h"
+#include "core/mesh/mesh_repair.h"
+#include "core/graph/proximity_graph.h"
+#include "core/mesh/mesh_report.h"
+#include "core/mesh/riemannian_metric.h"
+#include "core/mesh/surface_point.h"
 
 namespace geoprox::cli {
 namespace {
@@ -89,7 +89,7 @@ void run_exact(const ExactArgs& args) {
   std::optional<SurfacePoint> to;
   if (args.to_given) to = parse_point("--to", args.to);
   if (std::isnan(args.radius) || args.radius < 0) {
-    throw InvalidInput("BadRadius", "--radius must be a non-negative number");
+    throw InvalidInput(ErrorCode::BadRadius, "--radius must be a non-negative number");
   }
 
   const TriangleMesh mesh = load_mesh(args.mesh);
@@ -214,7 +214,7 @@ std::string format_repair_map(const RepairedMesh& repaired, const std::string& s
 bool mesh_output_is_obj(const std::string& out, const char* command) {
   const std::string ext = lower_extension(out);
   if (ext != ".obj" && ext != ".off") {
-    throw InvalidInput("UnsupportedFormat",
+    throw InvalidInput(ErrorCode::UnsupportedFormat,
                        "--out " + out + ": " + command + " writes .obj or .off files");
   }
   return ext == ".obj";

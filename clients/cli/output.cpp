@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "clients/cli/cli.h"
-#include "core/errors.h"
+#include "core/base/errors.h"
 
 namespace geoprox::cli {
 
@@ -34,7 +34,7 @@ void write_output(const std::string& text, const std::string& out_path) {
     return;
   }
   if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0) {
-    throw FileError("WriteFailed",
+    throw FileError(ErrorCode::WriteFailed,
                     std::string("cannot write to standard output: ") + std::strerror(errno));
   }
 }
@@ -51,7 +51,7 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   namespace fs = std::filesystem;
   const fs::path target(path);
   if (path.empty() || !target.has_filename()) {
-    throw FileError("WriteFailed", "output path '" + path + "' does not name a file");
+    throw FileError(ErrorCode::WriteFailed, "output path '" + path + "' does not name a file");
   }
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   // Appended rather than "." + name + ...: g++ 12 at -O2 and above reports a false -Wrestrict
@@ -65,7 +65,7 @@ void write_file_atomically(const std::string& path, const std::string& text) {
 
   const int fd = ::mkstemp(name.data());
   if (fd < 0) {
-    throw FileError("WriteFailed", "cannot write '" + path +
+    throw FileError(ErrorCode::WriteFailed, "cannot write '" + path +
                                        "': cannot create a temporary file in '" + dir.string() +
                                        "': " + std::strerror(errno));
   }
@@ -75,7 +75,7 @@ void write_file_atomically(const std::string& path, const std::string& text) {
     const int err = errno;
     if (is_open) ::close(fd);
     ::unlink(temporary.c_str());
-    throw FileError("WriteFailed",
+    throw FileError(ErrorCode::WriteFailed,
                     "cannot write '" + path + "': " + step + ": " + std::strerror(err));
   };
 
@@ -106,7 +106,7 @@ SurfacePoint parse_point(const std::string& option, const std::string& text) {
   try {
     return parse_surface_point(text);
   } catch (const InvalidInput& e) {
-    throw InvalidInput(e.reason(), option + ": " + e.what());
+    throw InvalidInput(e.code(), option + ": " + e.what());
   }
 }
 
@@ -116,7 +116,7 @@ void validate_point(const std::string& option, const std::string& text, const Su
   try {
     point.validate(mesh);
   } catch (const InvalidInput& e) {
-    throw InvalidInput(e.reason(), option + " " + text + ": " + e.what());
+    throw InvalidInput(e.code(), option + " " + text + ": " + e.what());
   }
 }
 

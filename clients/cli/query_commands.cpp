@@ -21,14 +21,14 @@
 #include "clients/cli/cli.h"
 #include "clients/cli/render.h"
 #include "clients/cli/result_files.h"
-#include "core/errors.h"
-#include "core/exact_geodesic.h"
-#include "core/fast_marching.h"
-#include "core/exponential_map.h"
-#include "core/geodesic_query.h"
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/loaded_graph.h"
+#include "core/base/errors.h"
+#include "core/geodesic/exact_geodesic.h"
+#include "core/geodesic/fast_marching.h"
+#include "core/apps/exponential_map.h"
+#include "core/query/geodesic_query.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/graph/loaded_graph.h"
 
 namespace geoprox::cli {
 namespace {
@@ -79,7 +79,7 @@ SurfacePoint resolve_point(const std::string& option, const std::string& text,
     char* end = nullptr;
     const unsigned long sample = std::strtoul(text.c_str() + 2, &end, 10);
     if (text.size() == 2 || *end != '\0' || sample > UINT32_MAX) {
-      throw InvalidInput("BadPointSyntax", option + ": '" + text + "' is not s:SAMPLE");
+      throw InvalidInput(ErrorCode::BadPointSyntax, option + ": '" + text + "' is not s:SAMPLE");
     }
     return query.sample_point(static_cast<std::uint32_t>(sample));
   }
@@ -87,7 +87,7 @@ SurfacePoint resolve_point(const std::string& option, const std::string& text,
     Vec3 p;
     char tail = 0;
     if (std::sscanf(text.c_str() + 2, "%lf,%lf,%lf%c", &p.x, &p.y, &p.z, &tail) != 3) {
-      throw InvalidInput("BadPointSyntax", option + ": '" + text + "' is not p:X,Y,Z");
+      throw InvalidInput(ErrorCode::BadPointSyntax, option + ": '" + text + "' is not p:X,Y,Z");
     }
     return query.snap(p).point;
   }
@@ -120,7 +120,7 @@ void run_distance(const DistanceArgs& args) {
   std::istream* in = &std::cin;
   if (args.pairs != "-") {
     file.open(args.pairs);
-    if (!file) throw FileError("FileNotFound", "cannot open pairs file '" + args.pairs + "'");
+    if (!file) throw FileError(ErrorCode::FileNotFound, "cannot open pairs file '" + args.pairs + "'");
     in = &file;
   }
   QueryScratch scratch = g.query->make_scratch();
@@ -133,7 +133,7 @@ void run_distance(const DistanceArgs& args) {
     std::string a, b, extra;
     if (!(fields >> a)) continue;  // blank line
     if (!(fields >> b) || (fields >> extra)) {
-      throw InvalidInput("BadPairsLine", args.pairs + ":" + std::to_string(line_number) +
+      throw InvalidInput(ErrorCode::BadPairsLine, args.pairs + ":" + std::to_string(line_number) +
                                              ": expected 'SOURCE TARGET'");
     }
     const std::string where = args.pairs + ":" + std::to_string(line_number);
@@ -467,7 +467,7 @@ double fmm_at(const FastMarchingSolver& fmm, const TriangleMesh& mesh, const Sur
 }
 
 void run_eval(const EvalArgs& args) {
-  if (args.pairs == 0) throw InvalidInput("BadCount", "--pairs must be positive");
+  if (args.pairs == 0) throw InvalidInput(ErrorCode::BadCount, "--pairs must be positive");
   GeodesicQueryOptions query_options;
   query_options.refine_within = args.refine_within;
   query_options.exact_within = args.exact_within;

@@ -6,7 +6,7 @@
 #include <limits>
 #include <string>
 
-#include "core/errors.h"
+#include "core/base/errors.h"
 
 namespace geoprox::cli {
 namespace {
@@ -79,17 +79,17 @@ double max_finite(const std::vector<double>& values) {
 
 Rasterizer::Rasterizer(const RenderOptions& options) : options_(options) {
   if (options.width < 1 || options.width > 8192 || options.height < 1 || options.height > 8192) {
-    throw InvalidInput("BadRenderOptions", "picture size " + std::to_string(options.width) + "x" +
+    throw InvalidInput(ErrorCode::BadRenderOptions, "picture size " + std::to_string(options.width) + "x" +
                                                std::to_string(options.height) +
                                                " is outside 1..8192 pixels per side");
   }
   if (options.supersampling < 1 || options.supersampling > 8) {
     throw InvalidInput(
-        "BadRenderOptions",
+        ErrorCode::BadRenderOptions,
         "supersampling " + std::to_string(options.supersampling) + " is outside 1..8");
   }
   if (options.up_axis < 0 || options.up_axis > 2) {
-    throw InvalidInput("BadRenderOptions", "up axis " + std::to_string(options.up_axis) +
+    throw InvalidInput(ErrorCode::BadRenderOptions, "up axis " + std::to_string(options.up_axis) +
                                                " is not 0 (x), 1 (y) or 2 (z)");
   }
   const long pixels = static_cast<long>(options.width) * options.height;
@@ -104,17 +104,17 @@ Rasterizer::Rasterizer(const RenderOptions& options) : options_(options) {
 Image Rasterizer::draw(const RenderScene& scene) {
   const std::size_t n = scene.positions.size();
   if (!scene.decal.empty() && scene.decal.size() != n) {
-    throw InvalidInput("BadScene", std::to_string(scene.decal.size()) + " decal coordinates for " +
+    throw InvalidInput(ErrorCode::BadScene, std::to_string(scene.decal.size()) + " decal coordinates for " +
                                        std::to_string(n) + " vertices");
   }
   if (!scene.values.empty() && scene.values.size() != n) {
-    throw InvalidInput("BadScene", std::to_string(scene.values.size()) + " values for " +
+    throw InvalidInput(ErrorCode::BadScene, std::to_string(scene.values.size()) + " values for " +
                                        std::to_string(n) + " vertices");
   }
   for (std::size_t f = 0; f < scene.triangles.size(); ++f) {
     for (std::uint32_t v : scene.triangles[f]) {
       if (v >= n) {
-        throw InvalidInput("BadScene", "triangle " + std::to_string(f) + " uses vertex " +
+        throw InvalidInput(ErrorCode::BadScene, "triangle " + std::to_string(f) + " uses vertex " +
                                            std::to_string(v) + " of " + std::to_string(n));
       }
     }
@@ -144,7 +144,7 @@ Image Rasterizer::draw(const RenderScene& scene) {
   double min_y = min_x, max_y = -min_x, min_depth = min_x, max_depth = -min_x;
   auto extend = [&](const Point3& p) {
     if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-      throw InvalidInput("BadScene", "a position is not finite");
+      throw InvalidInput(ErrorCode::BadScene, "a position is not finite");
     }
     const double x = dot(p, right), y = dot(p, up), depth = dot(p, eye);
     min_x = std::min(min_x, x), max_x = std::max(max_x, x);

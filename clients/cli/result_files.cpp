@@ -10,7 +10,7 @@
 #include <limits>
 
 #include "clients/cli/cli.h"
-#include "core/errors.h"
+#include "core/base/errors.h"
 
 namespace geoprox::cli {
 namespace {
@@ -68,7 +68,7 @@ void write_field_ply(const std::string& path, const TriangleMesh& mesh,
                      const std::vector<double>& distances,
                      const std::vector<std::string>& comments) {
   if (distances.size() != mesh.num_vertices()) {
-    throw InvalidInput("MeshMismatch", "the field has " + std::to_string(distances.size()) +
+    throw InvalidInput(ErrorCode::MeshMismatch, "the field has " + std::to_string(distances.size()) +
                                            " values but the mesh has " +
                                            std::to_string(mesh.num_vertices()) + " vertices");
   }
@@ -147,7 +147,7 @@ void append_xyz(std::string& out, const Vec3& point) {
 
 void write_path_obj(const std::string& path, const std::vector<Vec3>& points,
                     const std::vector<std::string>& comments) {
-  if (points.empty()) throw InvalidInput("EmptyPath", "the path has no points to write");
+  if (points.empty()) throw InvalidInput(ErrorCode::EmptyPath, "the path has no points to write");
   std::string out;
   for (const std::string& comment : comments) out += "# " + one_line(comment) + "\n";
   for (const Vec3& p : points) {
@@ -176,7 +176,7 @@ void write_png(const std::string& path, const Image& image) {
   if (writer.png) writer.info = png_create_info_struct(writer.png);
   if (!writer.png || !writer.info) {
     png_destroy_write_struct(&writer.png, nullptr);
-    throw FileError("WriteFailed", "cannot write '" + path + "': libpng could not start");
+    throw FileError(ErrorCode::WriteFailed, "cannot write '" + path + "': libpng could not start");
   }
   std::vector<png_bytep> rows(static_cast<std::size_t>(image.height));
   for (std::size_t y = 0; y < rows.size(); ++y) {
@@ -186,7 +186,7 @@ void write_png(const std::string& path, const Image& image) {
   }
   const bool ok = encode(writer, image, rows.data());
   png_destroy_write_struct(&writer.png, &writer.info);
-  if (!ok) throw FileError("WriteFailed", "cannot write '" + path + "': libpng: " + writer.message);
+  if (!ok) throw FileError(ErrorCode::WriteFailed, "cannot write '" + path + "': libpng: " + writer.message);
   write_file_atomically(path, writer.bytes);
 }
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "clients/cli/render.h"
-#include "core/mesh.h"
+#include "core/mesh/mesh.h"
 
 namespace geoprox::cli {
 

@@ -5,8 +5,8 @@
 
 #include <cstdint>
 
-#include "core/geodesic_query.h"
-#include "core/proximity_graph.h"
+#include "core/query/geodesic_query.h"
+#include "core/graph/proximity_graph.h"
 #include "tests/core/test_meshes.h"
 
 namespace geoprox::test_meshes {

@@ -35,9 +35,9 @@
 #include <utility>
 #include <vector>
 
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
-#include "core/surface_point.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/surface_point.h"
 
 namespace geoprox::test_meshes {
 

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "core/mesh_io.h"
-#include "core/proximity_graph.h"
+#include "core/mesh/mesh_io.h"
+#include "core/graph/proximity_graph.h"
 #include "tests/core/test_meshes.h"
 
 namespace geoprox::test_support {

@@ -1,5 +1,5 @@
-// libFuzzer target: geodesic splines and the exponential map (core/geodesic_spline.h,
-// core/exponential_map.h) with hostile parameters on flat grids, where geodesics run through
+// libFuzzer target: geodesic splines and the exponential map (core/apps/geodesic_spline.h,
+// core/apps/exponential_map.h) with hostile parameters on flat grids, where geodesics run through
 // vertices whose angle sum is 2 pi and along chains of collinear edges.
 //
 // Input, read as a little stream (a short input reads zeros past its end):
@@ -22,13 +22,13 @@
 #include <memory>
 #include <vector>
 
-#include "core/errors.h"
-#include "core/exponential_map.h"
-#include "core/geodesic_query.h"
-#include "core/geodesic_spline.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
-#include "core/proximity_graph.h"
+#include "core/base/errors.h"
+#include "core/apps/exponential_map.h"
+#include "core/query/geodesic_query.h"
+#include "core/apps/geodesic_spline.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
+#include "core/graph/proximity_graph.h"
 
 namespace {
 

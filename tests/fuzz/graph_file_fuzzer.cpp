@@ -1,4 +1,4 @@
-// libFuzzer target: the graph-file opener (core/graph_file.h) on hostile bundles, then what the
+// libFuzzer target: the graph-file opener (core/graph/graph_file.h) on hostile bundles, then what the
 // server does with a bundle that opened (rebuild its mesh and geometry, verify_mesh).
 //
 // Input: the file's bytes. The structure is opened without the checksum (a mutated file would
@@ -14,10 +14,10 @@
 #include <span>
 #include <string>
 
-#include "core/errors.h"
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
+#include "core/base/errors.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
 #include "tests/fuzz/fuzz_support.h"
 
 namespace {

@@ -1,6 +1,6 @@
-// libFuzzer target: the mesh loaders (core/mesh_io.h) on hostile files, then what `geoprox info`
-// computes from a mesh that loaded (core/mesh_report.h), what `geoprox refine` makes of it
-// (core/mesh_refinement.h), and what `geoprox repair` makes of the file (core/mesh_repair.h).
+// libFuzzer target: the mesh loaders (core/mesh/mesh_io.h) on hostile files, then what `geoprox info`
+// computes from a mesh that loaded (core/mesh/mesh_report.h), what `geoprox refine` makes of it
+// (core/mesh/mesh_refinement.h), and what `geoprox repair` makes of the file (core/mesh/mesh_repair.h).
 //
 // Input: one selector byte, then the file's bytes. The selector picks the extension, which is
 // what picks the reader: 0 .obj, 1 .off, 2 .ply (ascii or binary, from its header), 3 .stl
@@ -16,13 +16,13 @@
 #include <cstdint>
 #include <string>
 
-#include "core/errors.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh.h"
-#include "core/mesh_io.h"
-#include "core/mesh_refinement.h"
-#include "core/mesh_repair.h"
-#include "core/mesh_report.h"
+#include "core/base/errors.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
+#include "core/mesh/mesh_refinement.h"
+#include "core/mesh/mesh_repair.h"
+#include "core/mesh/mesh_report.h"
 #include "tests/fuzz/fuzz_support.h"
 
 namespace {

@@ -23,7 +23,7 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 
 prefix="$work/prefix"
 cmake --install "$build_dir" --prefix "$prefix" > "$work/install.log" || { cat "$work/install.log"; fail "cmake --install failed"; }
-for f in bin/geoproxd bin/geoprox include/geoprox/geoprox_client.h include/geoprox/core/mesh.h \
+for f in bin/geoproxd bin/geoprox include/geoprox/geoprox_client.h include/geoprox/core/mesh/mesh.h \
          include/geoprox/protocol/json_rpc.h lib/libgeoprox_client.a lib/libgeoprox_protocol.a \
          lib/libgeoprox_core.a lib/cmake/geoprox/geoproxConfig.cmake \
          lib/cmake/geoprox/geoproxConfigVersion.cmake; do

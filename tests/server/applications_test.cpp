@@ -3,8 +3,8 @@
 #include <cmath>
 #include <fstream>
 
-#include "core/exponential_map.h"
-#include "core/geodesic_spline.h"
+#include "core/apps/exponential_map.h"
+#include "core/apps/geodesic_spline.h"
 #include "tests/server/server_test_support.h"
 
 namespace geoprox::server::testing {

@@ -1,7 +1,7 @@
 // Every method end to end over a real socket, compared with in-process GeodesicQuery answers.
 #include <cmath>
 
-#include "core/exact_geodesic.h"
+#include "core/geodesic/exact_geodesic.h"
 #include "protocol/base64.h"
 #include "server/service.h"
 #include "tests/server/server_test_support.h"

@@ -10,8 +10,8 @@
 #include <memory>
 #include <optional>
 
-#include "core/graph_file.h"
-#include "core/mesh_io.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/mesh_io.h"
 #include "server/compute_pool.h"
 #include "server_test_support.h"
 

@@ -26,10 +26,10 @@
 #include <string>
 #include <thread>
 
-#include "core/graph_file.h"
-#include "core/intrinsic_geometry.h"
-#include "core/mesh_io.h"
-#include "core/proximity_graph.h"
+#include "core/graph/graph_file.h"
+#include "core/mesh/intrinsic_geometry.h"
+#include "core/mesh/mesh_io.h"
+#include "core/graph/proximity_graph.h"
 #include "protocol/json_rpc.h"
 #include "server/config.h"
 #include "server/logging.h"

@@ -1,9 +1,9 @@
 // Uses the installed geoprox::core (COMPONENTS core): prints the exact geodesic distance
 // v:0 -> f:100:0.2:0.3:0.5 on the mesh file given, with %.17g.
 //   core_consumer MESH
-#include <geoprox/core/exact_geodesic.h>
-#include <geoprox/core/intrinsic_geometry.h>
-#include <geoprox/core/mesh_io.h>
+#include <geoprox/core/geodesic/exact_geodesic.h>
+#include <geoprox/core/mesh/intrinsic_geometry.h>
+#include <geoprox/core/mesh/mesh_io.h>
 
 #include <cstdio>
 #include <exception>
