@@ -13,7 +13,7 @@
 //    a deterministic random permutation, a stand-in for farthest-point samples) are the targets;
 //    from M of those samples a solve runs with stop_after_targets = 36 (the 36 nearest samples,
 //    the source itself included), as the graph builder runs them: the samples prepared once as
-//    a GeodesicTargets, halfedges queued (ExactGeodesicOptions::queue_halfedges); the median
+//    a GeodesicTargets, halfedges queued (the solver's choice for such solves); the median
 //    time (two rounds of M solves) and the median radius reached are reported, and on the
 //    details line the median of the same solves with one queue entry per window (two rounds,
 //    alternated with the others), and of radius solves over the same disks (from each source
@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "bench/bench_support.h"
+#include "core/geodesic/window_propagation.h"
 #include "core/base/errors.h"
 #include "core/geodesic/exact_geodesic.h"
 #include "core/mesh/intrinsic_geometry.h"
@@ -70,7 +71,8 @@ long parse_count(const char* flag, const char* text) {
   char* end = nullptr;
   const long value = std::strtol(text, &end, 10);
   if (*end != 0 || value <= 0) {
-    std::fprintf(stderr, "exact_geodesic_bench: %s needs a positive integer, got '%s'\n", flag, text);
+    std::fprintf(stderr, "exact_geodesic_bench: %s needs a positive integer, got '%s'\n", flag,
+                 text);
     std::exit(2);
   }
   return value;
@@ -83,7 +85,8 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
   TriangleMesh mesh = load_mesh(path);
   IntrinsicGeometry geometry(mesh);
   const double load_ms = ms_since(load_start);
-  ExactGeodesicSolver solver(mesh, geometry);
+  // The engine behind ExactGeodesicSolver, so that both queue strategies can be timed.
+  detail::WindowPropagation solver(mesh, geometry);
   const auto nv = static_cast<std::uint32_t>(mesh.num_vertices());
 
   // Full solves.
@@ -123,7 +126,8 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
     if (!mesh.is_isolated_vertex(v)) order.push_back(v);
   }
   Rng shuffle{s.seed ^ 0x5EEDull};
-  for (std::size_t i = order.size(); i > 1; --i) std::swap(order[i - 1], order[shuffle.below(static_cast<std::uint32_t>(i))]);
+  for (std::size_t i = order.size(); i > 1; --i)
+    std::swap(order[i - 1], order[shuffle.below(static_cast<std::uint32_t>(i))]);
   order.resize(std::min(order.size(), s.samples));
   std::vector<SurfacePoint> targets;
   for (std::uint32_t v : order) targets.push_back(SurfacePoint::vertex(v));
@@ -131,9 +135,6 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
   const GeodesicTargets prepared(geometry, targets);
   ExactGeodesicSolver::Options opt;
   opt.stop_after_targets = std::min(s.nearest, targets.size());
-  opt.queue_halfedges = true;  // as the graph builder's local solves
-  ExactGeodesicSolver::Options per_window = opt;
-  per_window.queue_halfedges = false;
   std::vector<double> local_ms, per_window_ms, radius, local_windows;
   // The k-th bounded solve starts from the k-th sample.
   auto source_vertex = [&](int k) { return order[static_cast<std::size_t>(k) % order.size()]; };
@@ -147,7 +148,8 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
     for (int k = 0; k < s.local_solves; ++k) {
       const std::vector<GeodesicSource> source = source_of(k);
       const auto start = Clock::now();
-      solver.solve(source, prepared, queued ? opt : per_window);
+      solver.force_queue_strategy(queued);
+      solver.solve(source, prepared, opt);
       (queued ? local_ms : per_window_ms).push_back(ms_since(start));
       if (round == 0) {
         radius.push_back(solver.radius_reached());
@@ -158,7 +160,7 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
   // The same disks by radius: the stop the reference solvers offer.
   std::vector<double> radius_ms;
   ExactGeodesicSolver::Options by_radius;
-  by_radius.queue_halfedges = true;
+  solver.force_queue_strategy(std::nullopt);
   for (int round = 0; round < 2; ++round) {
     for (int k = 0; k < s.local_solves; ++k) {
       const std::vector<GeodesicSource> source = source_of(k);
@@ -187,16 +189,17 @@ std::string bench_mesh(const std::string& path, const Settings& s) {
               peak_rss_mib());
   std::fflush(stdout);
   char details[640];
-  std::snprintf(details, sizeof details,
-               "- %s: load+geometry %.0f ms; full solve min %.1f / max %.1f ms over %zu runs, %zu of %u "
-               "vertices reached; local solves: %zu targets, stop after %zu, min %.3f / max %.3f ms; "
-               "with one queue entry per window: median %.3f ms; radius solves over the same disks: "
-               "median %.3f ms",
-               base_name(path).c_str(), load_ms, *std::min_element(full_ms.begin(), full_ms.end()),
-               *std::max_element(full_ms.begin(), full_ms.end()), full_ms.size(), reached, nv, targets.size(),
-               opt.stop_after_targets, *std::min_element(local_ms.begin(), local_ms.end()),
-               *std::max_element(local_ms.begin(), local_ms.end()), median(per_window_ms),
-               median(radius_ms));
+  std::snprintf(
+      details, sizeof details,
+      "- %s: load+geometry %.0f ms; full solve min %.1f / max %.1f ms over %zu runs, %zu of %u "
+      "vertices reached; local solves: %zu targets, stop after %zu, min %.3f / max %.3f ms; "
+      "with one queue entry per window: median %.3f ms; radius solves over the same disks: "
+      "median %.3f ms",
+      base_name(path).c_str(), load_ms, *std::min_element(full_ms.begin(), full_ms.end()),
+      *std::max_element(full_ms.begin(), full_ms.end()), full_ms.size(), reached, nv,
+      targets.size(), opt.stop_after_targets, *std::min_element(local_ms.begin(), local_ms.end()),
+      *std::max_element(local_ms.begin(), local_ms.end()), median(per_window_ms),
+      median(radius_ms));
   return details;
 }
 
@@ -234,8 +237,8 @@ int main(int argc, char** argv) {
     }
   }
   if (meshes.empty()) usage("no mesh given");
-  std::printf("runs %d x %d sources (full); %d local solves to the %zu nearest of %zu samples\n", s.runs,
-              s.sources, s.local_solves, s.nearest, s.samples);
+  std::printf("runs %d x %d sources (full); %d local solves to the %zu nearest of %zu samples\n",
+              s.runs, s.sources, s.local_solves, s.nearest, s.samples);
   std::printf("| mesh | faces | full median ms | one-shot median ms | windows created | "
               "bounded median ms | radius reached | bounded windows | peak RSS MiB |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");

@@ -56,7 +56,6 @@ std::vector<std::pair<SurfacePoint, SurfacePoint>> band_pairs(const TriangleMesh
     const SurfacePoint s = SurfacePoint::face(face, b0, b1, 1 - b0 - b1);
     ExactGeodesicOptions options;
     options.max_distance = hi;
-    options.queue_halfedges = true;
     solver.solve(s, options);
     band.clear();
     for (std::uint32_t v : solver.touched_vertices()) {
@@ -146,8 +145,7 @@ int main(int argc, char** argv) {
       for (const auto& [s, t] : pairs) {
         ExactGeodesicOptions options;
         options.stop_after_targets = 1;
-        options.queue_halfedges = true;
-        const GeodesicSource source{s, 0.0};
+            const GeodesicSource source{s, 0.0};
         auto start = Clock::now();
         plain.solve(std::span<const GeodesicSource>(&source, 1),
                     std::span<const SurfacePoint>(&t, 1), options);

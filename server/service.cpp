@@ -386,7 +386,8 @@ Answer Service::answer(const protocol::Call& call, RequestContext& context) cons
     const protocol::RequestId id = call.id.value_or(protocol::RequestId());
     if (const auto* field = std::get_if<protocol::FieldParams>(&call.params)) {
       auto mesh = acquire(registry_, config_, field->mesh, context);
-      a.line = protocol::serialize_field_result(id, run_field(*field, *mesh, context, config_.limits));
+      a.line =
+          protocol::serialize_field_result(id, run_field(*field, *mesh, context, config_.limits));
     } else {
       a.line = protocol::serialize_result(id, execute(call.params, context));
     }
@@ -536,8 +537,9 @@ json Service::batch(const protocol::BatchParams& params, RequestContext& context
     RequestContext sub;
     sub.interrupt = context.interrupt;
     if (entry.timeout_ms) {
-      const auto own = std::chrono::steady_clock::now() + std::chrono::milliseconds(config_.limits.effective_timeout_ms(
-                                 entry.timeout_ms));
+      const auto own =
+          std::chrono::steady_clock::now() +
+          std::chrono::milliseconds(config_.limits.effective_timeout_ms(entry.timeout_ms));
       if (own < sub.interrupt.deadline) sub.interrupt.deadline = own;
     }
     try {

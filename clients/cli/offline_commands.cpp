@@ -105,7 +105,6 @@ void run_exact(const ExactArgs& args) {
   ExactGeodesicSolver solver(mesh, geometry);
   ExactGeodesicSolver::Options options;
   options.max_distance = args.radius;
-  options.queue_halfedges = true;  // one solve, usually wide, as a full solve always is
   std::string text;
 
   if (!to) {

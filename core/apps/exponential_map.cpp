@@ -30,8 +30,9 @@ SurfacePoint canonical_surface_point(const TriangleMesh& mesh, const SurfacePoin
   switch (point.kind) {
     case SurfacePoint::Kind::Vertex:
       if (mesh.is_isolated_vertex(point.id)) {
-        throw InvalidInput(ErrorCode::IsolatedVertex, "vertex " + std::to_string(point.id) +
-                                                 " belongs to no face, so no geodesic reaches it");
+        throw InvalidInput(ErrorCode::IsolatedVertex,
+                           "vertex " + std::to_string(point.id) +
+                               " belongs to no face, so no geodesic reaches it");
       }
       return point;
     case SurfacePoint::Kind::Edge:
@@ -112,8 +113,9 @@ double TangentFrame::angle(const FaceDirection& direction) const {
         }
       }
       if (!unfolded) {
-        throw InvalidInput(ErrorCode::BadDirection, "a direction in face " + std::to_string(d.face) +
-                                               " does not start at " + source_.to_string());
+        throw InvalidInput(ErrorCode::BadDirection,
+                           "a direction in face " + std::to_string(d.face) + " does not start at " +
+                               source_.to_string());
       }
     }
     return wrap_angle(std::atan2(d.y, d.x));
@@ -132,9 +134,9 @@ double TangentFrame::angle(const FaceDirection& direction) const {
     const double angle = (fan_start_[i] + within) * scale_;
     return mesh.is_boundary_vertex(source_.id) ? angle : wrap_angle(angle);
   }
-  throw InvalidInput(ErrorCode::BadDirection, "a direction in face " + std::to_string(direction.face) +
-                                         " does not start at vertex " +
-                                         std::to_string(source_.id));
+  throw InvalidInput(ErrorCode::BadDirection,
+                     "a direction in face " + std::to_string(direction.face) +
+                         " does not start at vertex " + std::to_string(source_.id));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -154,10 +156,12 @@ ExponentialMap::~ExponentialMap() = default;
 
 ExponentialMapResult ExponentialMap::compute(const SurfacePoint& source, const Options& options) {
   if (std::isnan(options.radius) || options.radius < 0) {
-    throw InvalidInput(ErrorCode::BadRadius, "the radius of an exponential map must be a number >= 0");
+    throw InvalidInput(ErrorCode::BadRadius,
+                       "the radius of an exponential map must be a number >= 0");
   }
   if (options.mode == ExponentialMapMode::Graph && query_ == nullptr) {
-    throw InvalidInput(ErrorCode::NoGraph, "the graph mode of the exponential map needs a proximity graph");
+    throw InvalidInput(ErrorCode::NoGraph,
+                       "the graph mode of the exponential map needs a proximity graph");
   }
   const TangentFrame frame(*mesh_, *geometry_, source);
   return options.mode == ExponentialMapMode::Exact ? compute_exact(frame.source(), frame, options)
@@ -202,6 +206,45 @@ ExponentialMapResult ExponentialMap::compute_exact(const SurfacePoint& source,
   return out;
 }
 
+// Graph labels from the linked samples; each sample remembers the first sample of its path at
+// a positive distance from s (its root), or the graph edge that leaves s when s is a sample.
+void ExponentialMap::label_samples(double rho, double radius, const QueryInterrupt* interrupt) {
+  const ProximityGraphView& graph = query_->graph();
+  const std::uint32_t ns = graph.num_samples;
+  label_.assign(ns, kInfinity);
+  root_.assign(ns, -1);
+  root_edge_.assign(ns, -1);
+  root_angle_.assign(ns, std::numeric_limits<double>::quiet_NaN());
+  using Entry = std::pair<double, std::uint32_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
+  for (std::uint32_t i = 0; i < ns; ++i) {
+    const double d = solver_.distance(graph.sample_vertex[i]);
+    if (d <= rho) {
+      label_[i] = d;
+      root_[i] = d > 0 ? static_cast<std::int32_t>(i) : -1;
+      heap.emplace(d, i);
+    }
+  }
+  std::size_t pops = 0;
+  while (!heap.empty()) {
+    const auto [key, i] = heap.top();
+    heap.pop();
+    if (interrupt && ++pops % 256 == 0) interrupt->check();
+    if (key > radius) break;
+    if (key > label_[i]) continue;
+    for (std::uint32_t e = graph.edge_offsets[i]; e < graph.edge_offsets[i + 1]; ++e) {
+      const std::uint32_t j = graph.edge_target[e];
+      const double d = key + graph.edge_distance[e];
+      if (d < label_[j]) {
+        label_[j] = d;
+        root_[j] = root_[i] >= 0 ? root_[i] : static_cast<std::int32_t>(j);
+        root_edge_[j] = root_[i] >= 0 ? root_edge_[i] : static_cast<std::int32_t>(e);
+        heap.emplace(d, j);
+      }
+    }
+  }
+}
+
 ExponentialMapResult ExponentialMap::compute_graph(const SurfacePoint& source,
                                                    const TangentFrame& frame,
                                                    const Options& options) {
@@ -224,49 +267,14 @@ ExponentialMapResult ExponentialMap::compute_graph(const SurfacePoint& source,
   solve.max_distance = bound;
   solve.interrupt = options.interrupt;
   solver_.solve(source, solve);
-  std::vector<double> exact(nv, kInfinity);
+  std::vector<double>& exact = exact_;
+  exact.assign(nv, kInfinity);
   for (std::uint32_t v : solver_.touched_vertices()) {
     const double d = solver_.distance(v);
     if (d <= bound) exact[v] = d;
   }
 
-  // Graph labels from the linked samples; each sample remembers the first sample of its path at
-  // a positive distance from s (its root), or the graph edge that leaves s when s is a sample.
-  const std::uint32_t ns = graph.num_samples;
-  if (beyond) {
-    label_.assign(ns, kInfinity);
-    root_.assign(ns, -1);
-    root_edge_.assign(ns, -1);
-    root_angle_.assign(ns, std::numeric_limits<double>::quiet_NaN());
-    using Entry = std::pair<double, std::uint32_t>;
-    std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
-    for (std::uint32_t i = 0; i < ns; ++i) {
-      const double d = solver_.distance(graph.sample_vertex[i]);
-      if (d <= rho) {
-        label_[i] = d;
-        root_[i] = d > 0 ? static_cast<std::int32_t>(i) : -1;
-        heap.emplace(d, i);
-      }
-    }
-    std::size_t pops = 0;
-    while (!heap.empty()) {
-      const auto [key, i] = heap.top();
-      heap.pop();
-      if (options.interrupt && ++pops % 256 == 0) options.interrupt->check();
-      if (key > options.radius) break;
-      if (key > label_[i]) continue;
-      for (std::uint32_t e = graph.edge_offsets[i]; e < graph.edge_offsets[i + 1]; ++e) {
-        const std::uint32_t j = graph.edge_target[e];
-        const double d = key + graph.edge_distance[e];
-        if (d < label_[j]) {
-          label_[j] = d;
-          root_[j] = root_[i] >= 0 ? root_[i] : static_cast<std::int32_t>(j);
-          root_edge_[j] = root_[i] >= 0 ? root_edge_[i] : static_cast<std::int32_t>(e);
-          heap.emplace(d, j);
-        }
-      }
-    }
-  }
+  if (beyond) label_samples(rho, options.radius, options.interrupt);
 
   // A full exact solve from s, only when a direction is not known otherwise (a stored direction
   // that is unknown, or s being a sample whose cover reaches past rho).
@@ -292,7 +300,8 @@ ExponentialMapResult ExponentialMap::compute_graph(const SurfacePoint& source,
       cached = frame.angle(
           solver_.path_to(SurfacePoint::vertex(root_vertex)).direction_at_source);
     } else {
-      const GraphDirection& stored = graph.edge_direction[static_cast<std::size_t>(root_edge_[root])];
+      const GraphDirection& stored =
+          graph.edge_direction[static_cast<std::size_t>(root_edge_[root])];
       const double length = std::hypot(double{stored.x}, double{stored.y});
       cached = length > 0 ? frame.angle(FaceDirection{stored.face, stored.x / length,
                                                       stored.y / length})
@@ -323,8 +332,8 @@ ExponentialMapResult ExponentialMap::compute_graph(const SurfacePoint& source,
     std::int32_t via = -1;
     for (std::uint32_t c = graph.cover_offsets[v]; c < graph.cover_offsets[v + 1]; ++c) {
       const std::uint32_t j = graph.cover_sample[c];
-      const double through = label_.empty() ? kInfinity
-                                            : label_[j] + static_cast<double>(graph.cover_distance[c]);
+      const double through =
+          label_.empty() ? kInfinity : label_[j] + static_cast<double>(graph.cover_distance[c]);
       if (through < best) {
         best = through;
         via = static_cast<std::int32_t>(j);
@@ -333,7 +342,8 @@ ExponentialMapResult ExponentialMap::compute_graph(const SurfacePoint& source,
     const std::int32_t root = via >= 0 ? root_[static_cast<std::size_t>(via)] : -1;
     // No root: v is reached straight from s (a sample) through its cover row, or not through
     // the samples at all.
-    const double angle = root >= 0 ? root_angle(static_cast<std::uint32_t>(root)) : fallback_angle(v);
+    const double angle =
+        root >= 0 ? root_angle(static_cast<std::uint32_t>(root)) : fallback_angle(v);
     out.vertices.push_back(polar(v, d, angle));
   }
   return out;

@@ -122,6 +122,9 @@ class ExponentialMap {
                                      const Options& options);
   ExponentialMapResult compute_graph(const SurfacePoint& source, const TangentFrame& frame,
                                      const Options& options);
+  /// Graph labels out to `radius` from the samples that solver_'s solve reached within rho,
+  /// with each sample's root (see root_) and the graph edge of a zero-distance root.
+  void label_samples(double rho, double radius, const QueryInterrupt* interrupt);
 
   const TriangleMesh* mesh_;
   const IntrinsicGeometry* geometry_;
@@ -129,6 +132,7 @@ class ExponentialMap {
   std::unique_ptr<QueryScratch> scratch_;  ///< for the distance field (graph mode)
   ExactGeodesicSolver solver_;
   std::unique_ptr<ExactGeodesicSolver> fallback_;  ///< for unknown stored directions
+  std::vector<double> exact_;  ///< graph mode: exact distance per vertex inside rho, else inf
   // Graph search buffers, one entry per sample.
   std::vector<double> label_;
   std::vector<std::int32_t> root_;       ///< first sample of the path at positive distance, or -1

@@ -86,9 +86,10 @@ Segment segment_between(const TriangleMesh& mesh, const IntrinsicGeometry& geome
   });
   if (!found) {
     throw InvalidInput(ErrorCode::BadPath, "consecutive path points " + a.to_string() + " and " +
-                                      b.to_string() + " share no face");
+                                               b.to_string() + " share no face");
   }
-  const Vec2 pa = geometry.face_point(s.face, s.a.data()), pb = geometry.face_point(s.face, s.b.data());
+  const Vec2 pa = geometry.face_point(s.face, s.a.data()),
+             pb = geometry.face_point(s.face, s.b.data());
   s.length = std::hypot(pb.x - pa.x, pb.y - pa.y);
   return s;
 }
@@ -153,15 +154,14 @@ std::vector<PathPoint> GeodesicSpline::geodesic(const SurfacePoint& a, const Sur
   }
   ExactGeodesicOptions solve;
   solve.stop_after_targets = 1;
-  solve.queue_halfedges = true;
   solve.interrupt = options.interrupt;
   if (geometry_->lengths_are_chords()) solve.goal = b.position(*mesh_);
   const GeodesicSource source{a, 0};
   worker.solver.solve(std::span<const GeodesicSource>(&source, 1),
                       std::span<const SurfacePoint>(&b, 1), solve);
   if (worker.solver.settled_targets().empty()) {
-    throw Unreachable(ErrorCode::Unreachable, b.to_string() + " is not reachable from " + a.to_string() +
-                                         " (another component)");
+    throw Unreachable(ErrorCode::Unreachable, b.to_string() + " is not reachable from " +
+                                                  a.to_string() + " (another component)");
   }
   return worker.solver.path_to(b).points;
 }
@@ -200,16 +200,20 @@ GeodesicSplineResult GeodesicSpline::compute(std::span<const SurfacePoint> contr
                                              const Options& options) {
   const std::size_t n = control.size();
   if (options.type == SplineType::Bezier && (n < 4 || (n - 1) % 3 != 0)) {
-    throw InvalidInput(ErrorCode::BadControlPoints, "a cubic Bezier spline needs 3k + 1 control points "
-                                           "(4, 7, 10, ...), not " + std::to_string(n));
+    throw InvalidInput(ErrorCode::BadControlPoints,
+                       "a cubic Bezier spline needs 3k + 1 control points "
+                       "(4, 7, 10, ...), not " +
+                           std::to_string(n));
   }
   if (options.type == SplineType::BSpline && n < 4) {
-    throw InvalidInput(ErrorCode::BadControlPoints,
-                       "a cubic B-spline needs at least 4 control points, not " + std::to_string(n));
+    throw InvalidInput(
+        ErrorCode::BadControlPoints,
+        "a cubic B-spline needs at least 4 control points, not " + std::to_string(n));
   }
   if (options.samples < 2) {
-    throw InvalidInput(ErrorCode::BadSamples, "a spline needs at least 2 samples (its two ends), not " +
-                                         std::to_string(options.samples));
+    throw InvalidInput(
+        ErrorCode::BadSamples,
+        "a spline needs at least 2 samples (its two ends), not " + std::to_string(options.samples));
   }
   if (options.geodesics == SplineGeodesics::Graph && query_ == nullptr) {
     throw InvalidInput(ErrorCode::NoGraph, "graph geodesics need a proximity graph");

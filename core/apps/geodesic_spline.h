@@ -19,8 +19,8 @@
 // exact_path), so that it explores a thin ellipse around the geodesic instead of a disk; a pair
 // closer in space than the link radius rho skips the graph query. A graph path is not used as
 // the geodesic: its length is off by a fraction of a percent, but its points stray from the
-// geodesic by about the square root of that (a planar Bezier on a grid was off by 2% of the
-// grid), and the spline takes points along its geodesics.
+// geodesic by about the square root of that, and the spline takes points along its
+// geodesics.
 // Curve points are independent once the control polygon is known: Options::threads spreads
 // them over OpenMP threads, each with its own scratch.
 // The point at fraction u is found on the path polyline by intrinsic arc length (segment lengths
@@ -34,7 +34,7 @@
 #include <vector>
 
 #include "core/base/errors.h"
-#include "core/geodesic/exact_geodesic.h"
+#include "core/geodesic/geodesic_types.h"
 #include "core/query/geodesic_query.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"

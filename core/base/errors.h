@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -46,6 +47,11 @@ enum class ErrorCode : std::uint8_t {
   GEOPROX_ERROR_CODES(GEOPROX_ERROR_CODE_ENUMERATOR)
 #undef GEOPROX_ERROR_CODE_ENUMERATOR
 };
+
+/// How many codes there are: ErrorCode values are 0 .. kErrorCodeCount - 1.
+#define GEOPROX_ERROR_CODE_ONE(name) +1
+inline constexpr std::size_t kErrorCodeCount = 0 GEOPROX_ERROR_CODES(GEOPROX_ERROR_CODE_ONE);
+#undef GEOPROX_ERROR_CODE_ONE
 
 /// The stable CamelCase name of a code, e.g. "FaceOutOfRange".
 const std::string& error_code_name(ErrorCode code);

@@ -5,7 +5,7 @@
 // mesh stores about 3 million 64-byte windows: growing a std::vector to that size copies every
 // window about twice and faults every page in twice. Blocks that never move (this file's
 // predecessor, a segmented array) avoid that, but each access then loads the block table and
-// splits the index; a local solve on lucy.obj (99,970 faces) was 4-5% faster on one flat array.
+// splits the index, and local solves are faster on one flat array.
 // Here the array is one anonymous mapping; growing it asks the kernel to move the pages
 // (mremap), so nothing is copied and no page is faulted in again. Past 2 MiB the mapping is
 // offered to the kernel as transparent huge pages (a local solve touches a few pages of its

@@ -8,9 +8,9 @@
 // digit in which its key differs from last_ (the last key popped, or about to be), and of its
 // value in that digit; push is an append, and a refill moves the smallest bucket's entries at
 // least one digit down. With one bucket per bit (base 2), the keys of a solve's wavefront
-// (continuous doubles) made every entry move about log2(queue size) ~ 17 times, a quarter of a
-// solve's instructions; base 16 moves each one ~4 times. Against the 4-ary heap
-// (core/base/quaternary_heap.h) base 2 already made a full exact solve on horse.ply about 7% faster.
+// (continuous doubles) made every entry move about log2(queue size) times; base 16 moves each
+// one about a quarter as often. Even base 2 beats the 4-ary heap (core/base/quaternary_heap.h)
+// on full exact solves.
 //
 // last_ is the smallest key of the last refill, which top() may run before the entry it shows
 // is popped: a caller that looks ahead (the solver prefetches the next entry while it

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 namespace geoprox::tuning {
 
@@ -18,9 +19,80 @@ inline constexpr double kRelativeSlack = 1e-9;
 
 // ---- Geodesic solvers (core/geodesic) -------------------------------------------------------
 
+/// Exact solver: a window is dropped only when an alternative path is shorter by more than this
+/// fraction of the distances involved, so that near-ties never lose the shortest path to
+/// rounding.
+inline constexpr double kPruneSlack = 1e-12;
+/// Exact solver: a window's source this close to its edge's line (relative to the edge length
+/// plus the source's offset along it) lies on the line. A few ulps of that scale, no more: a
+/// source a hairline below the corner of a sliver face is that close to the sliver's long side,
+/// and its window must still fan out through the sliver.
+inline constexpr double kOnLineTolerance = 1e-14;
+/// Exact solver: a point this close (relative to the edge length) to a window's end counts as
+/// inside it. Windows reaching an edge from different parents agree on their common end only to
+/// rounding, which caps and needles amplify; a vertex in such a hairline gap must still be
+/// reached. A point up to this far outside costs a distance error of order slack^2.
+inline constexpr double kVisibilitySlack = 1e-6;
+/// Exact solver: two windows on one halfedge that overlap by less than this (relative to the
+/// edge length), neither inside the other, are not compared: cutting could only remove that
+/// sliver. Such overlaps are rounding between abutting windows, and comparing them is wasted.
+inline constexpr double kSliverOverlap = 1e-5;
+/// Exact solver: how far outside a window's interval (relative to the mean edge length) the ray
+/// to its face's far corner, not reached yet, may pass and still reach it through the
+/// interval's nearer end. The detour costs at most about near_miss^2 / distance; smaller values
+/// left corners beside needle faces unreached.
+inline constexpr double kNearMiss = 1e-4;
+/// Exact solver: two points closer than this fraction of the lengths around them coincide.
+inline constexpr double kCoincident = 1e-12;
+/// Exact solver: the most windows one solve may store, per halfedge of the mesh (full solves on
+/// real meshes store a few to a few tens), and at least kMinWindows. Past it the solve throws
+/// ResourceExhausted, so that no solve's memory grows beyond a bound set by the mesh.
+inline constexpr std::size_t kWindowsPerHalfedge = 64;
+inline constexpr std::size_t kMinWindows = std::size_t{1} << 20;
+/// Exact solver, goal-directed solves: relative slack of the straight-line bound, against
+/// rounding in the bound.
+inline constexpr double kGoalSlack = 1e-12;
+/// Exact solver: targets waited for, up to this many, are tracked to bound the solve's stop.
+inline constexpr std::size_t kMaxNearestTracked = 64;
+
 // ---- Proximity graph (core/graph) -----------------------------------------------------------
 
 // ---- Queries (core/query) -------------------------------------------------------------------
+
+/// Default of QueryTuning::link_solve_edges: a face or edge point's link solve reaches this many
+/// of its face's mean edge lengths (at least its face's corners, at most rho).
+inline constexpr double kLinkSolveEdges = 3;
+/// Default of QueryTuning::link_solve_vertices: ... and no more than the nearest this many
+/// vertices, where needles reach across small triangles.
+inline constexpr std::uint32_t kLinkSolveVertices = 100;
+/// A near pair's exact disks reach at least this many link radii: about half the work of a
+/// solve out to rho.
+inline constexpr double kNearRadius = 0.7;
+/// ... then on while the disk has done less work than such a disk takes on average, up to this
+/// many times kNearRadius.
+inline constexpr double kNearReach = 3;
+/// Samples whose disks out to kNearRadius measure that average work (taken at even steps of
+/// the samples' order: farthest-point sampling starts at the extremities).
+inline constexpr std::uint32_t kNearProbeSamples = 15;
+/// A point's face counts as sparse when its mean edge exceeds the mesh's mean by more than
+/// these ratios: its near disk may then do up to (ratio / kSparseFaceForWork) times the average
+/// work, and its pair is refined out to (ratio / kSparseFaceForRefinement) times refine_within;
+/// both factors at most kMaxSparseness. Random points fall on larger-than-mean faces more often
+/// than not, and on an ordinary mesh those are no sparser than the rest: only outliers count.
+inline constexpr double kSparseFaceForWork = 2;
+inline constexpr double kSparseFaceForRefinement = 4;
+inline constexpr double kMaxSparseness = 3;
+/// A distance field's exact disk around each source, in link radii (where pairs under
+/// exact_within are answered exactly): fields are exact out to it, and every sample inside links
+/// the source to the graph. Its solve is most of a field's time.
+inline constexpr double kFieldExactRadii = 1.75;
+/// A traced path segment between two samples is accepted when it ends within this fraction of
+/// the segment's length from the next sample; otherwise that segment comes from an exact solve.
+/// The polyline's length then stays within about tolerance^2 / 2 (relative) of the distance.
+inline constexpr double kTraceTolerance = 1e-4;
+/// Positions farther than this from the surface, as a fraction of the bounding-box diagonal, are
+/// refused by GeodesicQuery::snap.
+inline constexpr double kSnapTolerance = 0.05;
 
 // ---- Applications (core/apps) ---------------------------------------------------------------
 

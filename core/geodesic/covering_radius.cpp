@@ -129,17 +129,16 @@ CoveringRadius covering_radius(ExactGeodesicSolver& solver, std::span<const Surf
   }
   if (!(options.relative_tolerance > 0 && options.relative_tolerance < 1)) {
     throw InvalidInput(ErrorCode::BadOption, "covering radius tolerance must be in (0, 1), not " +
-                                        std::to_string(options.relative_tolerance));
+                                                 std::to_string(options.relative_tolerance));
   }
   if (std::isnan(options.beyond) || options.beyond < 0) {
     throw InvalidInput(ErrorCode::BadOption, "covering radius threshold must be >= 0, not " +
-                                        std::to_string(options.beyond));
+                                                 std::to_string(options.beyond));
   }
   const TriangleMesh& mesh = solver.mesh();
   std::vector<GeodesicSource> sources(samples.size());
   for (std::size_t i = 0; i < samples.size(); ++i) sources[i] = {samples[i], 0.0};
   ExactGeodesicOptions full;
-  full.queue_halfedges = true;
   solver.solve(sources, {}, full);
 
   CoveringRadius result;

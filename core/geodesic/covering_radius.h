@@ -2,8 +2,8 @@
 // with no sample in it, over every point of the surface (faces' insides included), the r of
 // Theorem 4.2 of "Lightweight preprocessing and fast query of geodesic distance via proximity
 // graph" (error bound 2r / (R - 2r)). Exact distances from all samples at once (one
-// multi-source exact solve, core/geodesic/exact_geodesic.h), then best-first branch and bound over the
-// faces, after Piyavskii's method for Lipschitz functions (Piyavskii 1972; Shubert 1972): the
+// multi-source exact solve, core/geodesic/exact_geodesic.h), then best-first branch and bound over
+// the faces, after Piyavskii's method for Lipschitz functions (Piyavskii 1972; Shubert 1972): the
 // distance to the samples changes by at most the length travelled, so a triangle whose corners
 // are at most D from the samples and whose longest side is L holds no point farther than
 // D + L / sqrt(3) (every point of a triangle lies within L / sqrt(3) of one of its corners).

@@ -337,11 +337,11 @@ void FastMarchingSolver::validate(const Options& options) const {
   }
   if (options.max_unfold_steps < 0) {
     throw InvalidInput(ErrorCode::BadUnfoldSteps, "max_unfold_steps must be >= 0, got " +
-                                             std::to_string(options.max_unfold_steps));
+                                                      std::to_string(options.max_unfold_steps));
   }
   if (options.lower_halo_rings < 1 || options.lower_halo_rings > 254) {
     throw InvalidInput(ErrorCode::BadHaloRings, "lower_halo_rings must be in [1, 254], got " +
-                                           std::to_string(options.lower_halo_rings));
+                                                    std::to_string(options.lower_halo_rings));
   }
 }
 
@@ -422,7 +422,7 @@ void FastMarchingSolver::solve(std::span<const GeodesicSource> sources, const Op
     s.point.validate(*mesh_);
     if (!std::isfinite(s.offset) || s.offset < 0) {
       throw InvalidInput(ErrorCode::BadOffset, "source offset " + std::to_string(s.offset) +
-                                          " must be finite and non-negative");
+                                                   " must be finite and non-negative");
     }
   }
   validate(options);
@@ -458,9 +458,9 @@ std::size_t FastMarchingSolver::lower(std::span<double> distances, const Surface
 
 double FastMarchingSolver::distance(std::uint32_t v) const {
   if (v >= state_.size()) {
-    throw InvalidInput(ErrorCode::VertexOutOfRange, "vertex " + std::to_string(v) +
-                                               " is out of range (mesh has " +
-                                               std::to_string(state_.size()) + " vertices)");
+    throw InvalidInput(ErrorCode::VertexOutOfRange,
+                       "vertex " + std::to_string(v) + " is out of range (mesh has " +
+                           std::to_string(state_.size()) + " vertices)");
   }
   const VertexState& s = state_[v];
   return s.stamp == generation_ && s.state == kAccepted ? s.distance : kInfinity;

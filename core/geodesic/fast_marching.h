@@ -33,7 +33,7 @@
 #include <span>
 #include <vector>
 
-#include "core/geodesic/exact_geodesic.h"
+#include "core/geodesic/geodesic_types.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
 #include "core/mesh/surface_point.h"
@@ -51,11 +51,9 @@ struct FastMarchingOptions {
   /// lower() only: rings of not-lowered vertices around the lowered region whose values are
   /// computed (as neighbours for the updates of lowered ones, never written). The fresh field
   /// at a lowered vertex can depend on such vertices where the new front meets the old one at a
-  /// grazing angle. Measured with 3 rings: bit for bit min(distances, fresh solve) in the tests
-  /// (grids, 150 farthest-point steps on spot.obj); in 100 to 200 steps on armadillo, lucy,
-  /// horse and igea (1k-6k vertices lowered per step) 14 to 372 values in all stayed higher, by
-  /// at most 9e-4 of the covering radius. 1 ring costs about 0.6x as much in late sampling but
-  /// left values up to 4% of the radius higher (lucy.obj).
+  /// grazing angle. With 3 rings the lowered field equals min(distances, fresh solve) bit for
+  /// bit in the tests, and on large meshes a few values stay higher by a tiny fraction of the
+  /// covering radius; 1 ring is cheaper but leaves values noticeably higher.
   int lower_halo_rings = 3;
 };
 
@@ -108,7 +106,7 @@ class FastMarchingSolver {
   /// source) exactly when the fresh field at each lowered vertex depends on no vertex beyond the
   /// halo (see FastMarchingOptions::lower_halo_rings); otherwise a few vertices at the border of
   /// the lowered region keep a higher value (never above the old one). The tests check bitwise
-  /// equality on a grid and on spot.obj, the benchmark counts differences on larger meshes.
+  /// equality on a grid and on a sample mesh; the benchmark counts differences on larger meshes.
   /// Throws InvalidInput for an invalid source, bad options, or (BadDistanceCount) if
   /// distances.size() != number of vertices. NaN entries count as larger than any distance.
   std::size_t lower(std::span<double> distances, const SurfacePoint& source,
@@ -200,7 +198,9 @@ class FastMarchingSolver {
   std::array<std::vector<HeapEntry>, 65> buckets_;
   std::uint64_t heap_last_ = 0;
   double current_key_ = 0;
-  std::uint8_t halo_depth_ = 255;  ///< relax() touches no new vertex deeper than this  ///< distance of the vertex being accepted (pushes never go below)
+  std::uint8_t halo_depth_ =
+      255;  ///< relax() touches no new vertex deeper than this  ///< distance of the vertex being
+            ///< accepted (pushes never go below)
   std::vector<std::uint32_t> lowered_;
   FastMarchingStats stats_;
 };

@@ -136,17 +136,15 @@ class StartResolver {
 
  private:
   [[noreturn]] void not_containing(const SurfacePoint& start) const {
-    throw InvalidInput(ErrorCode::BadDirection, "the direction is given in face " +
-                                           std::to_string(direction_.face) +
-                                           ", which does not contain the start point " +
-                                           start.to_string());
+    throw InvalidInput(ErrorCode::BadDirection,
+                       "the direction is given in face " + std::to_string(direction_.face) +
+                           ", which does not contain the start point " + start.to_string());
   }
   [[noreturn]] void pointing_out(const std::string& where, double angle) const {
     throw InvalidInput(ErrorCode::BadDirection,
-                       "direction (" + fmt(direction_.x) + ", " + fmt(direction_.y) +
-                           ") in face " + std::to_string(direction_.face) +
-                           " points out of the face at " + where + " by " + fmt(angle) +
-                           " rad (more than angle_tolerance " +
+                       "direction (" + fmt(direction_.x) + ", " + fmt(direction_.y) + ") in face " +
+                           std::to_string(direction_.face) + " points out of the face at " + where +
+                           " by " + fmt(angle) + " rad (more than angle_tolerance " +
                            fmt(options_.angle_tolerance) + ")");
   }
 
@@ -239,20 +237,21 @@ void validate_inputs(const TriangleMesh& mesh, const IntrinsicGeometry& geometry
                                options.angle_tolerance};
   for (double tol : tolerances) {
     if (!std::isfinite(tol) || tol < 0) {
-      throw InvalidInput(ErrorCode::BadTolerance, "trace tolerances must be finite and >= 0, got " +
-                                             fmt(tol));
+      throw InvalidInput(ErrorCode::BadTolerance,
+                         "trace tolerances must be finite and >= 0, got " + fmt(tol));
     }
   }
   start.validate(mesh);
   if (direction.face >= mesh.num_faces()) {
-    throw InvalidInput(ErrorCode::FaceOutOfRange, "direction face " + std::to_string(direction.face) +
-                                             " is out of range (mesh has " +
-                                             std::to_string(mesh.num_faces()) + " faces)");
+    throw InvalidInput(ErrorCode::FaceOutOfRange, "direction face " +
+                                                      std::to_string(direction.face) +
+                                                      " is out of range (mesh has " +
+                                                      std::to_string(mesh.num_faces()) + " faces)");
   }
   const double n = std::hypot(direction.x, direction.y);
   if (!std::isfinite(n) || !(n > 0)) {
     throw InvalidInput(ErrorCode::BadDirection, "direction (" + fmt(direction.x) + ", " +
-                                           fmt(direction.y) + ") is zero or not finite");
+                                                    fmt(direction.y) + ") is zero or not finite");
   }
   if (!std::isfinite(length) || length < 0) {
     throw InvalidInput(ErrorCode::BadLength,
@@ -445,16 +444,17 @@ GeodesicTrace trace_geodesic(const TriangleMesh& mesh, const IntrinsicGeometry& 
 FaceDirection unfold_direction(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                                std::uint32_t h, const FaceDirection& direction) {
   if (h >= mesh.num_halfedges() || mesh.twin(h) < 0) {
-    throw InvalidInput(ErrorCode::BadHalfedge, "halfedge " + std::to_string(h) +
-                                          (h >= mesh.num_halfedges()
-                                               ? " is out of range"
-                                               : " is on the boundary: nothing to unfold into"));
+    throw InvalidInput(
+        ErrorCode::BadHalfedge,
+        "halfedge " + std::to_string(h) +
+            (h >= mesh.num_halfedges() ? " is out of range"
+                                       : " is on the boundary: nothing to unfold into"));
   }
   if (direction.face != TriangleMesh::face_of(h)) {
-    throw InvalidInput(ErrorCode::BadDirection, "direction is given in face " +
-                                           std::to_string(direction.face) + ", not in face " +
-                                           std::to_string(TriangleMesh::face_of(h)) +
-                                           " of halfedge " + std::to_string(h));
+    throw InvalidInput(ErrorCode::BadDirection,
+                       "direction is given in face " + std::to_string(direction.face) +
+                           ", not in face " + std::to_string(TriangleMesh::face_of(h)) +
+                           " of halfedge " + std::to_string(h));
   }
   const auto twin = static_cast<std::uint32_t>(mesh.twin(h));
   const Vec2 d = unfold(geometry, h, twin, {direction.x, direction.y});

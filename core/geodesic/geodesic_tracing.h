@@ -17,7 +17,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/geodesic/exact_geodesic.h"
+#include "core/geodesic/geodesic_types.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
 #include "core/mesh/surface_point.h"

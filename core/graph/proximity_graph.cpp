@@ -415,14 +415,12 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     // A plain solve to the link radius finds the samples within it from the vertices it
     // reaches; only where fewer than m_P lie within it does a second solve run to the m_P
     // nearest (its targets prepared once: registering all n_P samples at every solve would
-    // cost O(n_P^2)). Both are several edges wide, so they queue halfedges.
+    // cost O(n_P^2)).
     ExactGeodesicOptions to_radius;
     to_radius.max_distance = graph.link_radius;
-    to_radius.queue_halfedges = true;
     ExactGeodesicOptions to_neighbors;
     to_neighbors.stop_after_targets = std::min<std::size_t>(size.neighbors + 1, n);
     to_neighbors.min_distance = graph.link_radius;
-    to_neighbors.queue_halfedges = true;
     std::vector<std::pair<double, std::uint32_t>> found;  // (distance, sample)
     // Each result goes to its sample's slot: the order changes nothing but the time (the graph
     // file is the same byte for byte).

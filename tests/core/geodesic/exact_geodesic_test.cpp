@@ -33,6 +33,7 @@
 
 #include "core/base/errors.h"
 #include "core/geodesic/exact_geodesic.h"
+#include "core/geodesic/window_propagation.h"
 #include "core/mesh/mesh_io.h"
 #include "tests/core/test_meshes.h"
 #include "tests/core/test_support.h"
@@ -1509,7 +1510,6 @@ TEST(ExactGeodesicInput, GoalDirectedSolveOnAGridEnds) {
   ExactGeodesicSolver solver(*tm.mesh, *tm.geometry);
   ExactGeodesicSolver::Options directed;
   directed.stop_after_targets = 1;
-  directed.queue_halfedges = true;
   directed.goal = to.position(*tm.mesh);
   QueryInterrupt deadline;  // a hang guard, not a timing
   deadline.deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
@@ -1757,7 +1757,8 @@ TEST_P(ExactGeodesicRealMesh, Paths) {
 }
 
 TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
-  ExactGeodesicSolver full(mesh(), geometry()), bounded(mesh(), geometry());
+  ExactGeodesicSolver full(mesh(), geometry());
+  detail::WindowPropagation bounded(mesh(), geometry());  // both queue strategies
   Rng rng(109);
   Tally tally(std::string(GetParam().name) + " bounded solve", scale());
   std::size_t beyond_stop = 0;
@@ -1782,12 +1783,13 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
       const double r = 0.5 * (sorted[rank - 1] + sorted[rank]);
       ExactGeodesicSolver::Options opt;
       opt.max_distance = r;
-      opt.queue_halfedges = run % 2 == 1;
+      const bool queue_halfedges = run % 2 == 1;
+      bounded.force_queue_strategy(queue_halfedges);
       bounded.solve(one(s), {}, opt);
       beyond_stop += bounded.stats().windows_beyond_stop;
       const std::string ctx = "from " + s.to_string() + ", R = " + fmt(r) +
-                              (opt.queue_halfedges ? ", halfedges queued" : "");
-      if (!opt.queue_halfedges) {
+                              (queue_halfedges ? ", halfedges queued" : "");
+      if (!queue_halfedges) {
         per_window_pops = bounded.stats().queue_pops;
       } else if (run + 1 == 2 * ranks.size() &&
                  !(bounded.stats().queue_pops < per_window_pops)) {
@@ -1837,10 +1839,13 @@ TEST_P(ExactGeodesicRealMesh, BoundedSolveAgreesWithFullSolve) {
 }
 
 TEST_P(ExactGeodesicRealMesh, HalfedgeQueueMatchesWindowQueue) {
-  // A full solve queues halfedges (all windows waiting on one go together); a solve with a
-  // radius queues single windows. With a radius beyond the farthest point both cover the whole
-  // mesh in different orders and must agree everywhere: every vertex and random surface points.
-  ExactGeodesicSolver full(mesh(), geometry()), windowed(mesh(), geometry());
+  // A full solve queues halfedges (all windows waiting on one go together); the other solve,
+  // with a radius, is made to queue single windows. With a radius beyond the farthest point both
+  // cover the whole mesh in different orders and must agree everywhere: every vertex and random
+  // surface points.
+  ExactGeodesicSolver full(mesh(), geometry());
+  detail::WindowPropagation windowed(mesh(), geometry());
+  windowed.force_queue_strategy(false);
   Rng rng(223);
   Tally tally(std::string(GetParam().name) + " halfedge vs window queue", scale());
   for (int k = 0; k < count(3, 2); ++k) {
@@ -1875,7 +1880,8 @@ TEST_P(ExactGeodesicRealMesh, WorkBudgetStopsPastMinDistanceWithFinalDistances) 
   // reached; every vertex within radius_reached() has its full-solve distance, none beyond has
   // one. With one queue entry per window the budget is met exactly; with halfedges queued the
   // last entry may take it further, by less than one halfedge's waiting windows.
-  ExactGeodesicSolver full(mesh(), geometry()), budgeted(mesh(), geometry());
+  ExactGeodesicSolver full(mesh(), geometry());
+  detail::WindowPropagation budgeted(mesh(), geometry());  // both queue strategies
   Rng rng(211);
   Tally tally(std::string(GetParam().name) + " work budget", scale());
   for (int k = 0; k < count(3, 2); ++k) {
@@ -1893,7 +1899,7 @@ TEST_P(ExactGeodesicRealMesh, WorkBudgetStopsPastMinDistanceWithFinalDistances) 
       ExactGeodesicSolver::Options opt;
       opt.max_windows_propagated = all_windows / 10;
       opt.min_distance = min_fraction * farthest;
-      opt.queue_halfedges = queue_halfedges;
+      budgeted.force_queue_strategy(queue_halfedges);
       budgeted.solve(one(s), {}, opt);
       const double r = budgeted.radius_reached();
       const std::size_t spent = budgeted.stats().windows_propagated;
@@ -1978,7 +1984,8 @@ TEST_P(ExactGeodesicRealMesh, VertexStopSettlesTheNearestVertices) {
 }
 
 TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
-  ExactGeodesicSolver full(mesh(), geometry()), local(mesh(), geometry());
+  ExactGeodesicSolver full(mesh(), geometry());
+  detail::WindowPropagation local(mesh(), geometry());  // both queue strategies
   Rng rng(113);
   Tally tally(std::string(GetParam().name) + " K-target stop", scale());
   std::size_t beyond_stop = 0;  // windows not stored as the solve would stop before popping them
@@ -2005,11 +2012,12 @@ TEST_P(ExactGeodesicRealMesh, KTargetStopSettlesTheKNearest) {
       const std::size_t k = ks[run / 2];
       ExactGeodesicSolver::Options opt;
       opt.stop_after_targets = k;
-      opt.queue_halfedges = run % 2 == 1;
+      const bool queue_halfedges = run % 2 == 1;
+      local.force_queue_strategy(queue_halfedges);
       local.solve(one(s), targets, opt);
       if (k == 36) beyond_stop += local.stats().windows_beyond_stop;
       const std::string ctx = "from " + s.to_string() + ", K = " + std::to_string(k) +
-                              (opt.queue_halfedges ? ", halfedges queued" : "");
+                              (queue_halfedges ? ", halfedges queued" : "");
       const auto& settled = local.settled_targets();
       const auto& sd = local.settled_target_distances();
       if (settled.size() != k || sd.size() != k) {
@@ -2055,7 +2063,9 @@ TEST_P(ExactGeodesicRealMesh, GoalDirectedSolveIsExactAtItsTargetWithLessWork) {
   // dropped: the target's distance and path stay exact, and the solve does less work. Pairs
   // from close to a third of the way across the surface; with a radius, a target beyond it
   // stays unreached.
-  ExactGeodesicSolver full(mesh(), geometry()), plain(mesh(), geometry()), goal(mesh(), geometry());
+  ExactGeodesicSolver full(mesh(), geometry());
+  // Both queue strategies.
+  detail::WindowPropagation plain(mesh(), geometry()), goal(mesh(), geometry());
   Rng rng(307);
   Tally tally(std::string(GetParam().name) + " goal-directed", scale());
   std::size_t plain_windows = 0, goal_windows = 0;
@@ -2084,7 +2094,8 @@ TEST_P(ExactGeodesicRealMesh, GoalDirectedSolveIsExactAtItsTargetWithLessWork) {
       for (const double radius : {kInfinity, 1.2 * want, 0.8 * want}) {
         ExactGeodesicSolver::Options opt;
         opt.max_distance = radius;
-        opt.queue_halfedges = k % 2 == 1;
+        plain.force_queue_strategy(k % 2 == 1);
+        goal.force_queue_strategy(k % 2 == 1);
         plain.solve(one(s), target, opt);
         opt.goal = at;
         goal.solve(one(s), target, opt);
@@ -2166,7 +2177,7 @@ TEST_P(ExactGeodesicRealMesh, SeveralSourcesAreTheMinimum) {
 }
 
 TEST_P(ExactGeodesicRealMesh, ReusedSolverMatchesFreshSolvers) {
-  ExactGeodesicSolver reused(mesh(), geometry());
+  detail::WindowPropagation reused(mesh(), geometry());  // both queue strategies
   Rng rng(131);
   std::vector<SurfacePoint> targets;
   for (int k = 0; k < 200; ++k) targets.push_back(random_face_point(mesh(), rng));
@@ -2185,9 +2196,11 @@ TEST_P(ExactGeodesicRealMesh, ReusedSolverMatchesFreshSolvers) {
       opt.stop_after_targets = 36;
     }
     // Bounded solves with and without halfedges queued (a stopped solve leaves some queued).
-    opt.queue_halfedges = k % 4 >= 2;
+    const bool queue_halfedges = k % 4 >= 2;
+    reused.force_queue_strategy(queue_halfedges);
     reused.solve(sources, tg, opt);
-    ExactGeodesicSolver fresh(mesh(), geometry());
+    detail::WindowPropagation fresh(mesh(), geometry());
+    fresh.force_queue_strategy(queue_halfedges);
     fresh.solve(sources, tg, opt);
     const auto a = reused.vertex_distances(), b = fresh.vertex_distances();
     bool same = a.size() == b.size() && reused.radius_reached() == fresh.radius_reached() &&

@@ -26,6 +26,7 @@
 // a path's polyline length and its distance (the figure; tracing snaps each traced
 // segment's end by at most trace_tolerance).
 #include "core/query/geodesic_query.h"
+#include "core/query/query_engine.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -58,6 +59,8 @@
 #include "tests/core/test_support.h"
 
 namespace geoprox {
+using detail::GraphSearch;
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -426,9 +429,11 @@ TEST(GeodesicQuery, LinksThroughVerticesAgreeWithExactLinks) {
   // without the refinement of near pairs, which would hide most of the difference.
   const QueryEnv& env = spot_env();
   GeodesicQueryOptions exact_links = graph_answer_options();
-  exact_links.link_solve_edges = 0;
   exact_links.refine_within = 0;
-  const GeodesicQuery reference(env.mesh, env.geometry, env.graph.view(), exact_links);
+  detail::QueryTuning links_by_solve;
+  links_by_solve.link_solve_edges = 0;
+  const GeodesicQuery reference(env.mesh, env.geometry, env.graph.view(), exact_links,
+                                links_by_solve);
   const GeodesicQuery through_vertices = unrefined(env.query);
   QueryScratch scratch = reference.make_scratch();
   QueryScratch fast_scratch = through_vertices.make_scratch();
@@ -471,10 +476,13 @@ TEST(GeodesicQuery, LinkSolvesStopAtTheNearestVertices) {
   GeodesicQueryOptions capped_options = graph_answer_options();
   GeodesicQueryOptions uncapped_options = graph_answer_options();
   capped_options.refine_within = uncapped_options.refine_within = 0;
-  capped_options.link_solve_vertices = 12;
-  uncapped_options.link_solve_vertices = 0;
-  const GeodesicQuery capped(env.mesh, env.geometry, env.graph.view(), capped_options);
-  const GeodesicQuery uncapped(env.mesh, env.geometry, env.graph.view(), uncapped_options);
+  detail::QueryTuning capped_tuning, uncapped_tuning;
+  capped_tuning.link_solve_vertices = 12;
+  uncapped_tuning.link_solve_vertices = 0;
+  const GeodesicQuery capped(env.mesh, env.geometry, env.graph.view(), capped_options,
+                             capped_tuning);
+  const GeodesicQuery uncapped(env.mesh, env.geometry, env.graph.view(), uncapped_options,
+                               uncapped_tuning);
   QueryScratch scratch = capped.make_scratch();
   QueryScratch uncapped_scratch = uncapped.make_scratch();
   const double edge = env.geometry.mean_edge_length();
@@ -513,11 +521,13 @@ TEST(GeodesicQuery, VertexLimitIsInertForExactLinks) {
   // link_solve_edges = 0 links by a solve out to rho, exactly: no link solve to limit, so
   // link_solve_vertices changes nothing, near pairs' disks included.
   const QueryEnv& env = spot_env();
-  GeodesicQueryOptions limited = graph_answer_options(), unlimited = graph_answer_options();
+  detail::QueryTuning limited, unlimited;
   limited.link_solve_edges = unlimited.link_solve_edges = 0;
   unlimited.link_solve_vertices = 0;
-  const GeodesicQuery a(env.mesh, env.geometry, env.graph.view(), limited);
-  const GeodesicQuery b(env.mesh, env.geometry, env.graph.view(), unlimited);
+  const GeodesicQuery a(env.mesh, env.geometry, env.graph.view(), graph_answer_options(),
+                        limited);
+  const GeodesicQuery b(env.mesh, env.geometry, env.graph.view(), graph_answer_options(),
+                        unlimited);
   QueryScratch sa = a.make_scratch(), sb = b.make_scratch();
   for (std::size_t k = 0; k < spot_pairs().size(); k += 4) {
     const ExactPair& p = spot_pairs()[k];
@@ -940,13 +950,14 @@ TEST(GeodesicQuery, PairsUnderExactWithinAreExact) {
 std::size_t compare_searches(const QueryEnv& env,
                              const std::vector<std::pair<SurfacePoint, SurfacePoint>>& pairs,
                              const std::vector<DistanceResult>& known, int& graph_answers) {
-  GeodesicQueryOptions o = graph_answer_options();
-  o.search = GraphSearch::MeetInTheMiddle;
-  const GeodesicQuery mitm(env.mesh, env.geometry, env.graph.view(), o);
-  o.search = GraphSearch::Dijkstra;
-  const GeodesicQuery dijkstra(env.mesh, env.geometry, env.graph.view(), o);
-  o.search = GraphSearch::Bidirectional;
-  const GeodesicQuery bidirectional(env.mesh, env.geometry, env.graph.view(), o);
+  const GeodesicQueryOptions o = graph_answer_options();
+  detail::QueryTuning tuning;
+  tuning.search = GraphSearch::MeetInTheMiddle;
+  const GeodesicQuery mitm(env.mesh, env.geometry, env.graph.view(), o, tuning);
+  tuning.search = GraphSearch::Dijkstra;
+  const GeodesicQuery dijkstra(env.mesh, env.geometry, env.graph.view(), o, tuning);
+  tuning.search = GraphSearch::Bidirectional;
+  const GeodesicQuery bidirectional(env.mesh, env.geometry, env.graph.view(), o, tuning);
   QueryScratch sb = bidirectional.make_scratch();
   QueryScratch sm = mitm.make_scratch();
   QueryScratch sd = dijkstra.make_scratch();
@@ -1080,9 +1091,10 @@ TEST(GeodesicQuery, PathsStartEndAndLengthMatch) {
   }
   // The other two searches build their paths from their own labels and parents.
   for (const GraphSearch search : {GraphSearch::MeetInTheMiddle, GraphSearch::Dijkstra}) {
-    GeodesicQueryOptions o = graph_answer_options();
-    o.search = search;
-    const GeodesicQuery other(env.mesh, env.geometry, env.graph.view(), o);
+    detail::QueryTuning tuning;
+    tuning.search = search;
+    const GeodesicQuery other(env.mesh, env.geometry, env.graph.view(), graph_answer_options(),
+                              tuning);
     QueryScratch other_scratch = other.make_scratch();
     SCOPED_TRACE(search == GraphSearch::Dijkstra ? "dijkstra" : "meet in the middle");
     for (std::size_t k = 3; k < pairs.size(); k += 36) {
