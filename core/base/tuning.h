@@ -16,6 +16,13 @@ inline constexpr double kRelativeSlack = 1e-9;
 
 // ---- Mesh (core/mesh) -----------------------------------------------------------------------
 
+/// The fewest bytes a vertex record takes in a mesh file ("0 0 0\n"): a reader reserves room for
+/// at most (file size / this) of the vertices a header announces, so that a short file cannot
+/// make it allocate for billions.
+inline constexpr std::size_t kSmallestVertexRecordBytes = 6;
+/// The same for a face record ("3 0 1 2\n").
+inline constexpr std::size_t kSmallestFaceRecordBytes = 8;
+
 // ---- Geodesic solvers (core/geodesic) -------------------------------------------------------
 
 // ---- Proximity graph (core/graph) -----------------------------------------------------------

@@ -231,7 +231,8 @@ std::uint32_t ClosestPointIndex::build_node(std::uint32_t begin, std::uint32_t e
   }
 
   const Vec3 extent = centroid_hi - centroid_lo;
-  const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+  const int axis =
+      extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
   // Median split: both halves have (almost) the same size, which bounds the depth even when
   // centroids coincide; ties go by face id so the tree depends on the mesh alone.
   const std::uint32_t middle = begin + (end - begin) / 2;

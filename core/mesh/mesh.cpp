@@ -24,8 +24,9 @@ std::uint64_t directed_key(std::uint32_t from, std::uint32_t to) {
 TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> faces)
     : positions_(std::move(positions)), faces_(std::move(faces)) {
   if (faces_.empty()) {
-    throw MeshError(ErrorCode::EmptyMesh, "mesh has no faces (" + std::to_string(positions_.size()) +
-                                     " vertices, 0 triangles)");
+    throw MeshError(
+        ErrorCode::EmptyMesh,
+        "mesh has no faces (" + std::to_string(positions_.size()) + " vertices, 0 triangles)");
   }
   if (faces_.size() > kMaxFaces) {
     throw MeshError(ErrorCode::TooLarge, "mesh has " + std::to_string(faces_.size()) +

@@ -64,8 +64,9 @@ SurfacePoint input_point(const TriangleMesh& mesh, std::uint32_t f, const Bary& 
 RefinedMesh refine_long_edges(const TriangleMesh& mesh, const MeshRefinementOptions& options) {
   const double limit = options.max_edge_length;
   if (!(std::isfinite(limit) && limit > 0)) {
-    throw InvalidInput(ErrorCode::BadOption, "the longest edge allowed must be a positive length, not " +
-                                        std::to_string(limit));
+    throw InvalidInput(
+        ErrorCode::BadOption,
+        "the longest edge allowed must be a positive length, not " + std::to_string(limit));
   }
   RefinedMesh out;
   out.input_vertices = mesh.num_vertices();
@@ -96,10 +97,12 @@ RefinedMesh refine_long_edges(const TriangleMesh& mesh, const MeshRefinementOpti
       changed = false;
       for (const Triangle& t : out.faces) {
         bool marked = false;
-        for (int k = 0; k < 3; ++k) marked = marked || midpoint_of.count(edge_key(t[k], t[(k + 1) % 3]));
+        for (int k = 0; k < 3; ++k)
+          marked = marked || midpoint_of.count(edge_key(t[k], t[(k + 1) % 3]));
         if (!marked) continue;
         const int s = longest_side(out.positions, t);
-        changed = midpoint_of.emplace(edge_key(t[s], t[(s + 1) % 3]), kUnassigned).second || changed;
+        changed =
+            midpoint_of.emplace(edge_key(t[s], t[(s + 1) % 3]), kUnassigned).second || changed;
       }
     }
     const std::size_t growth = 3 * midpoint_of.size();  // at most 3 new faces per marked edge

@@ -68,9 +68,9 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
     Triangle t = faces[f];
     for (std::uint32_t v : t) {
       if (v >= nv) {
-        throw MeshError(ErrorCode::VertexOutOfRange, "face " + std::to_string(f) + " refers to vertex " +
-                                                std::to_string(v) + " but the mesh has " +
-                                                std::to_string(nv) + " vertices");
+        throw MeshError(ErrorCode::VertexOutOfRange,
+                        "face " + std::to_string(f) + " refers to vertex " + std::to_string(v) +
+                            " but the mesh has " + std::to_string(nv) + " vertices");
       }
     }
     if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) {
@@ -102,7 +102,8 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
     std::size_t j = i + 1;
     while (j < by_vertices.size() && by_vertices[j].first == by_vertices[i].first) ++j;
     const Triangle& t = by_vertices[i].first;
-    const std::uint32_t first = by_vertices[i].second, second = by_vertices[i + 1 < j ? i + 1 : i].second;
+    const std::uint32_t first = by_vertices[i].second,
+                        second = by_vertices[i + 1 < j ? i + 1 : i].second;
     const bool two_face_surface = j - i == 2 && !same_turn(faces[first], faces[second]) &&
                                   uses(t[0], t[1]) == 2 && uses(t[1], t[2]) == 2 &&
                                   uses(t[2], t[0]) == 2;
@@ -241,7 +242,8 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
 
   out.positions.reserve(source_vertex.size());
   out.positions.assign(positions.begin(), positions.end());
-  for (std::size_t v = nv; v < source_vertex.size(); ++v) out.positions.push_back(positions[source_vertex[v]]);
+  for (std::size_t v = nv; v < source_vertex.size(); ++v)
+    out.positions.push_back(positions[source_vertex[v]]);
   out.faces = std::move(kept);
   out.source_vertex = std::move(source_vertex);
   report.vertices_out = out.positions.size();

@@ -190,7 +190,8 @@ RiemannianMetric parse_metric(std::istream& in, const std::string& name) {
   }
   if (in.bad()) throw FileError(ErrorCode::ReadError, name + ": read error");
   if (!have_header) {
-    throw FileError(ErrorCode::ParseError, name + ": empty; expected the header 'geoprox-metric 1 KIND'");
+    throw FileError(ErrorCode::ParseError,
+                    name + ": empty; expected the header 'geoprox-metric 1 KIND'");
   }
   return metric;
 }
@@ -231,8 +232,9 @@ void validate_metric(const TriangleMesh& mesh, const RiemannianMetric& metric,
                            "; it needs one row per " + (per_edge ? "edge" : "face"));
   }
   if (!(options.definiteness_tolerance >= 0) || !std::isfinite(options.definiteness_tolerance)) {
-    throw InvalidInput(ErrorCode::BadTolerance, "definiteness_tolerance must be finite and >= 0, not " +
-                                           number(options.definiteness_tolerance));
+    throw InvalidInput(ErrorCode::BadTolerance,
+                       "definiteness_tolerance must be finite and >= 0, not " +
+                           number(options.definiteness_tolerance));
   }
   for (std::size_t row = 0; row < rows; ++row) {
     const double* v = metric.values.data() + row * per_row;
