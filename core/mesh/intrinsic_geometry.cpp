@@ -71,6 +71,7 @@ IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, std::vector<doubl
   build(options);
 }
 
+// Over 100 lines: its stages run in order, each reading the arrays the one before filled.
 void IntrinsicGeometry::build(const Options& options) {
   const TriangleMesh& mesh = *mesh_;
   const std::size_t nh = mesh.num_halfedges();
@@ -78,9 +79,9 @@ void IntrinsicGeometry::build(const Options& options) {
   angle_sum_.assign(mesh.num_vertices(), 0);
   corner_angle_.assign(nh, 0);
   // Lengths that are the positions' chords to the last bit (computed from them, here or in a
-  // graph file) take their layouts from the positions (see the constructors): on
-  // ugly_rectangle(36888) paths across a row of zero-area faces laid out 1.8e-9 high by
-  // Heron's formula came out 2.4e-8 too long. Other lengths (a metric) have only themselves.
+  // graph file) take their layouts from the positions (see the constructors): Heron's formula
+  // lays zero-area faces out above rounding, which lengthens paths across rows of them. Other
+  // lengths (a metric) have only themselves.
   lengths_are_chords_ = true;
   bool exact_chords = true;
   for (std::uint32_t e = 0; e < mesh.num_edges() && lengths_are_chords_; ++e) {
