@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/base/errors.h"
+#include "core/base/tuning.h"
 
 namespace geoprox {
 
@@ -60,7 +61,7 @@ IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, std::vector<doubl
     const double a = edge_length_[mesh.edge_of(3 * f)];
     const double b = edge_length_[mesh.edge_of(3 * f + 1)];
     const double c = edge_length_[mesh.edge_of(3 * f + 2)];
-    const double slack = 1e-12 * (a + b + c);
+    const double slack = tuning::kTriangleInequalitySlack * (a + b + c);
     if (a > b + c + slack || b > a + c + slack || c > a + b + slack) {
       throw MeshError(ErrorCode::TriangleInequality,
                       "face " + std::to_string(f) + " has edge lengths " + std::to_string(a) +
@@ -87,7 +88,8 @@ void IntrinsicGeometry::build(const Options& options) {
   for (std::uint32_t e = 0; e < mesh.num_edges() && lengths_are_chords_; ++e) {
     const double chord =
         norm(mesh.position(mesh.edge_target(e)) - mesh.position(mesh.edge_origin(e)));
-    lengths_are_chords_ = std::abs(edge_length_[e] - chord) <= 1e-12 * chord;
+    lengths_are_chords_ =
+        std::abs(edge_length_[e] - chord) <= tuning::kChordRelativeTolerance * chord;
     exact_chords = exact_chords && edge_length_[e] == chord;
   }
   face_area_.resize(mesh.num_faces());

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/base/errors.h"
+#include "core/base/tuning.h"
 
 namespace geoprox {
 
@@ -87,15 +88,15 @@ double quadratic_3d(const double* m, const Vec3& d) {
 }
 
 /// Throws TriangleInequality for the first face whose three edge lengths break a triangle
-/// inequality by more than 1e-12 of its perimeter (the tolerance of IntrinsicGeometry). The
-/// message is "face F: <before>A, B, C (edges I, J, K)<after>".
+/// inequality by more than tuning::kTriangleInequalitySlack of its perimeter (as
+/// IntrinsicGeometry does). The message is "face F: <before>A, B, C (edges I, J, K)<after>".
 void check_triangle_inequalities(const TriangleMesh& mesh, const std::vector<double>& lengths,
                                  const std::string& before, const std::string& after) {
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
     const std::uint32_t i = mesh.edge_of(3 * f), j = mesh.edge_of(3 * f + 1),
                         k = mesh.edge_of(3 * f + 2);
     const double a = lengths[i], b = lengths[j], c = lengths[k];
-    const double slack = 1e-12 * (a + b + c);
+    const double slack = tuning::kTriangleInequalitySlack * (a + b + c);
     if (a > b + c + slack || b > a + c + slack || c > a + b + slack) {
       throw InvalidInput(ErrorCode::TriangleInequality,
                          "face " + std::to_string(f) + ": " + before + number(a) + ", " +
