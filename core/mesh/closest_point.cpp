@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/base/errors.h"
+#include "core/base/tuning.h"
 
 namespace geoprox {
 namespace {
@@ -18,14 +19,13 @@ namespace {
 constexpr std::size_t kStackCapacity = 64;
 
 /// A face counts as degenerate when (2 * area)^2 <= kSliverRatio * (longest edge)^4, i.e. its
-/// height over the longest edge L is below sqrt(kSliverRatio) * L ~ 1.5e-8 L. Below that the
-/// projection's barycentrics (error ~ eps * L / h) are worse than using the edges (error <= h),
-/// so such faces are treated as their three edges.
-constexpr double kSliverRatio = DBL_EPSILON;
+/// height over the longest edge L is below sqrt(kSliverRatio) * L. Below that the projection's
+/// barycentrics (error ~ eps * L / h) are worse than using the edges (error <= h), so such
+/// faces are treated as their three edges.
+constexpr double kSliverRatio = tuning::kClosestPointSliverRatio;
 
-/// Coordinates beyond this are refused: squared distances to them would overflow to infinity
-/// and every face would tie.
-constexpr double kMaxCoordinate = 1e150;
+/// Coordinates beyond this are refused (see tuning.h).
+constexpr double kMaxCoordinate = tuning::kClosestPointMaxCoordinate;
 
 // mesh.h's dot/cross are out of line; the per-triangle test is the hot loop, so it inlines its
 // own (same operation order, so results are identical).
@@ -231,7 +231,8 @@ std::uint32_t ClosestPointIndex::build_node(std::uint32_t begin, std::uint32_t e
   }
 
   const Vec3 extent = centroid_hi - centroid_lo;
-  const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+  const int axis =
+      extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
   // Median split: both halves have (almost) the same size, which bounds the depth even when
   // centroids coincide; ties go by face id so the tree depends on the mesh alone.
   const std::uint32_t middle = begin + (end - begin) / 2;

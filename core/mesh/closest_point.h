@@ -40,7 +40,7 @@ namespace geoprox {
 struct ClosestPointOptions {
   /// Leaves hold at most this many faces (>= 1; 0 throws InvalidInput "BadLeafSize"). Smaller
   /// leaves mean more nodes (2 F / leaf_size to 4 F / leaf_size, 56 bytes each) and fewer
-  /// triangle tests per query; 4 was fastest on lucy.obj (100k faces) among 1, 2, 4, 8, 16.
+  /// triangle tests per query; the default balances the two (bench/closest_point_bench.cpp).
   std::uint32_t leaf_size = 4;
 };
 
@@ -62,8 +62,8 @@ class ClosestPointIndex {
   /// closest() is const and safe from many threads at once, and allocates nothing.
   explicit ClosestPointIndex(const TriangleMesh& mesh, const Options& options = {});
 
-  /// The closest point of the surface to `position`. Throws InvalidInput(ErrorCode::BadPosition) for a
-  /// non-finite coordinate, or one beyond 1e150 in magnitude (its squared distance would
+  /// The closest point of the surface to `position`. Throws InvalidInput(ErrorCode::BadPosition)
+  /// for a non-finite coordinate, or one beyond 1e150 in magnitude (its squared distance would
   /// overflow). Exact ties in distance go to the lowest face id, so results are deterministic.
   ClosestPointResult closest(const Vec3& position) const;
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/base/errors.h"
+#include "core/base/tuning.h"
 
 namespace geoprox {
 
@@ -60,7 +61,7 @@ IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, std::vector<doubl
     const double a = edge_length_[mesh.edge_of(3 * f)];
     const double b = edge_length_[mesh.edge_of(3 * f + 1)];
     const double c = edge_length_[mesh.edge_of(3 * f + 2)];
-    const double slack = 1e-12 * (a + b + c);
+    const double slack = tuning::kTriangleInequalitySlack * (a + b + c);
     if (a > b + c + slack || b > a + c + slack || c > a + b + slack) {
       throw MeshError(ErrorCode::TriangleInequality,
                       "face " + std::to_string(f) + " has edge lengths " + std::to_string(a) +
@@ -71,6 +72,7 @@ IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, std::vector<doubl
   build(options);
 }
 
+// Over 100 lines: its stages run in order, each reading the arrays the one before filled.
 void IntrinsicGeometry::build(const Options& options) {
   const TriangleMesh& mesh = *mesh_;
   const std::size_t nh = mesh.num_halfedges();
@@ -78,15 +80,16 @@ void IntrinsicGeometry::build(const Options& options) {
   angle_sum_.assign(mesh.num_vertices(), 0);
   corner_angle_.assign(nh, 0);
   // Lengths that are the positions' chords to the last bit (computed from them, here or in a
-  // graph file) take their layouts from the positions (see the constructors): on
-  // ugly_rectangle(36888) paths across a row of zero-area faces laid out 1.8e-9 high by
-  // Heron's formula came out 2.4e-8 too long. Other lengths (a metric) have only themselves.
+  // graph file) take their layouts from the positions (see the constructors): Heron's formula
+  // lays zero-area faces out above rounding, which lengthens paths across rows of them. Other
+  // lengths (a metric) have only themselves.
   lengths_are_chords_ = true;
   bool exact_chords = true;
   for (std::uint32_t e = 0; e < mesh.num_edges() && lengths_are_chords_; ++e) {
     const double chord =
         norm(mesh.position(mesh.edge_target(e)) - mesh.position(mesh.edge_origin(e)));
-    lengths_are_chords_ = std::abs(edge_length_[e] - chord) <= 1e-12 * chord;
+    lengths_are_chords_ =
+        std::abs(edge_length_[e] - chord) <= tuning::kChordRelativeTolerance * chord;
     exact_chords = exact_chords && edge_length_[e] == chord;
   }
   face_area_.resize(mesh.num_faces());
@@ -124,8 +127,8 @@ void IntrinsicGeometry::build(const Options& options) {
       // the same area, so unfoldings across it agree to rounding. Where c projects onto ab
       // comes from the same source as the area: the lengths' formula divides their rounding
       // by ab, which only a height from the same lengths compensates (with the positions'
-      // height, c was 1e-9 off its distances beside a side of 3.5e-9 on ugly_bumps(14025, 9),
-      // and a window carried across that face came out nearer than its parent).
+      // height beside a very short side, c would be off its distances, and a window carried
+      // across the face could come out nearer than its parent).
       if (exact_chords) {
         const Vec3& a = mesh.position(mesh.origin(h));
         const Vec3 ac = mesh.position(mesh.opposite_vertex(h)) - a;
@@ -152,22 +155,26 @@ void IntrinsicGeometry::build(const Options& options) {
       degenerate_face_[h / 3] = area <= degenerate_area ? 1 : 0;
       // Height over the longest side, relative to it.
       const double longest = longest_side[h / 3] = std::max({ab, bc, ca});
-      thin_face_[h / 3] = !degenerate_face_[h / 3] && 2 * area < options.thin_face_ratio * longest * longest;
+      thin_face_[h / 3] =
+          !degenerate_face_[h / 3] && 2 * area < options.thin_face_ratio * longest * longest;
     }
   }
 
   // The layout on a short side from the lengths puts the far corner where the other two sides'
-  // difference says, which is noise: unfolded through it, the face was not the face (a corner
-  // 0.0023 off for a side of 1e-15 next to sides of 0.18). It is taken instead from the layout
-  // on the face's longest side, turned: the same triangle, so everything placed in its frame
-  // (the face's frame when that side is side 0: points, targets, directions) keeps the distances
-  // within the face. The angles at its ends stay as uncertain as they are; solvers let no window
-  // through such a side (short_sides).
+  // difference says, which is noise: unfolded through it, the face is not the face (its far corner
+  // can be off by much more than the short side's length). It is taken instead from the layout on
+  // the face's longest side, turned: the same triangle, so everything placed in its frame (the
+  // face's frame when that side is side 0: points, targets, directions) keeps the distances within
+  // the face. The angles at its ends stay as uncertain as they are; solvers let no window through
+  // such a side (short_sides).
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
     double side[3];
-    for (int i = 0; i < 3; ++i) side[i] = edge_length_[mesh.edge_of(3 * f + static_cast<std::uint32_t>(i))];
+    for (int i = 0; i < 3; ++i)
+      side[i] = edge_length_[mesh.edge_of(3 * f + static_cast<std::uint32_t>(i))];
     const int k = static_cast<int>(std::max_element(side, side + 3) - side);
-    auto is_short_here = [&](int j) { return side[j] > 0 && side[j] < options.short_edge_ratio * longest_side[f]; };
+    auto is_short_here = [&](int j) {
+      return side[j] > 0 && side[j] < options.short_edge_ratio * longest_side[f];
+    };
     if (!is_short_here((k + 1) % 3) && !is_short_here((k + 2) % 3)) continue;
     const HalfedgeLayout& base = crossing_[3 * f + static_cast<std::uint32_t>(k)].layout;
     Vec2 corner[3];

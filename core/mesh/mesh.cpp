@@ -19,26 +19,27 @@ std::uint64_t directed_key(std::uint32_t from, std::uint32_t to) {
   return (static_cast<std::uint64_t>(from) << 32) | to;
 }
 
-}  // namespace
-
-TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> faces)
-    : positions_(std::move(positions)), faces_(std::move(faces)) {
-  if (faces_.empty()) {
-    throw MeshError(ErrorCode::EmptyMesh, "mesh has no faces (" + std::to_string(positions_.size()) +
-                                     " vertices, 0 triangles)");
+/// Refuses what no mesh can be: no faces, too many, indices out of range or repeated in a
+/// face, non-finite coordinates.
+void check_faces_and_positions(const std::vector<Vec3>& positions,
+                               const std::vector<Triangle>& faces) {
+  if (faces.empty()) {
+    throw MeshError(
+        ErrorCode::EmptyMesh,
+        "mesh has no faces (" + std::to_string(positions.size()) + " vertices, 0 triangles)");
   }
-  if (faces_.size() > kMaxFaces) {
-    throw MeshError(ErrorCode::TooLarge, "mesh has " + std::to_string(faces_.size()) +
-                                    " faces; at most 2^30 are supported");
+  if (faces.size() > TriangleMesh::kMaxFaces) {
+    throw MeshError(ErrorCode::TooLarge, "mesh has " + std::to_string(faces.size()) +
+                                             " faces; at most 2^30 are supported");
   }
-  const auto nv = static_cast<std::uint32_t>(positions_.size());
-  for (std::uint32_t f = 0; f < faces_.size(); ++f) {
-    const Triangle& t = faces_[f];
+  const auto nv = static_cast<std::uint32_t>(positions.size());
+  for (std::uint32_t f = 0; f < faces.size(); ++f) {
+    const Triangle& t = faces[f];
     for (std::uint32_t v : t) {
       if (v >= nv) {
         throw MeshError(ErrorCode::VertexOutOfRange, describe_face(f, t) + " refers to vertex " +
-                                                std::to_string(v) + " but the mesh has " +
-                                                std::to_string(nv) + " vertices");
+                                                         std::to_string(v) + " but the mesh has " +
+                                                         std::to_string(nv) + " vertices");
       }
     }
     if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) {
@@ -47,7 +48,7 @@ TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> fa
     }
   }
   for (std::uint32_t v = 0; v < nv; ++v) {
-    const Vec3& p = positions_[v];
+    const Vec3& p = positions[v];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
       throw MeshError(ErrorCode::NonFiniteCoordinate,
                       "vertex " + std::to_string(v) + " has a non-finite coordinate (" +
@@ -55,11 +56,24 @@ TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> fa
                           std::to_string(p.z) + ")");
     }
   }
+}
 
+std::uint32_t origin_of(const std::vector<Triangle>& faces, std::uint32_t h) {
+  return faces[h / 3][h % 3];
+}
+std::uint32_t target_of(const std::vector<Triangle>& faces, std::uint32_t h) {
+  return faces[h / 3][(h % 3 + 1) % 3];
+}
+
+/// The twin of every halfedge (kNoHalfedge on the boundary); throws NonManifoldEdge or
+/// InconsistentOrientation for a directed edge used twice.
+std::vector<std::int32_t> link_twins(const std::vector<Triangle>& faces) {
   // Directed edges sorted by (origin, target): duplicates are complex edges or flipped faces.
-  const std::size_t nh = 3 * faces_.size();
+  const std::size_t nh = 3 * faces.size();
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(nh);
-  for (std::uint32_t h = 0; h < nh; ++h) keyed[h] = {directed_key(origin(h), target(h)), h};
+  for (std::uint32_t h = 0; h < nh; ++h) {
+    keyed[h] = {directed_key(origin_of(faces, h), target_of(faces, h)), h};
+  }
   std::sort(keyed.begin(), keyed.end());
   for (std::size_t i = 1; i < nh; ++i) {
     if (keyed[i].first == keyed[i - 1].first) {
@@ -73,27 +87,97 @@ TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> fa
                              [key](const auto& entry) { return entry.first == key; });
       };
       if (halfedges_with_key(keyed[i].first) == 2 &&
-          halfedges_with_key(directed_key(target(h), origin(h))) == 0) {
+          halfedges_with_key(directed_key(target_of(faces, h), origin_of(faces, h))) == 0) {
         throw MeshError(ErrorCode::InconsistentOrientation,
-                        describe_face(second, faces_[second]) + " runs the edge " +
-                            std::to_string(origin(h)) + "->" + std::to_string(target(h)) +
+                        describe_face(second, faces[second]) + " runs the edge " +
+                            std::to_string(origin_of(faces, h)) + "->" +
+                            std::to_string(target_of(faces, h)) +
                             " in the same direction as face " + std::to_string(first) +
                             " (inconsistently oriented faces: flip one)");
       }
       throw MeshError(ErrorCode::NonManifoldEdge,
-                      describe_face(second, faces_[second]) + " uses the directed edge " +
-                          std::to_string(origin(h)) + "->" + std::to_string(target(h)) +
-                          " already used by face " + std::to_string(first) +
+                      describe_face(second, faces[second]) + " uses the directed edge " +
+                          std::to_string(origin_of(faces, h)) + "->" +
+                          std::to_string(target_of(faces, h)) + " already used by face " +
+                          std::to_string(first) +
                           " (an edge with more than two faces, or inconsistently oriented faces)");
     }
   }
-  twin_.assign(nh, kNoHalfedge);
+  std::vector<std::int32_t> twins(nh, kNoHalfedge);
   for (std::uint32_t h = 0; h < nh; ++h) {
-    const std::uint64_t key = directed_key(target(h), origin(h));
+    const std::uint64_t key = directed_key(target_of(faces, h), origin_of(faces, h));
     auto it = std::lower_bound(keyed.begin(), keyed.end(),
                                std::pair<std::uint64_t, std::uint32_t>{key, 0});
-    if (it != keyed.end() && it->first == key) twin_[h] = static_cast<std::int32_t>(it->second);
+    if (it != keyed.end() && it->first == key) twins[h] = static_cast<std::int32_t>(it->second);
   }
+  return twins;
+}
+
+/// Which vertices are on the boundary; throws NonManifoldVertex unless each vertex's faces
+/// form a single fan.
+std::vector<std::uint8_t> check_single_fans(const TriangleMesh& mesh) {
+  // Each vertex's faces must form a single fan (a disk or half-disk).
+  const auto nv = static_cast<std::uint32_t>(mesh.num_vertices());
+  std::vector<std::uint8_t> boundary(nv, 0);
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    auto out = mesh.outgoing_halfedges(v);
+    if (out.empty()) continue;
+    std::uint32_t start = out[0];
+    std::size_t open_ends = 0;
+    for (std::uint32_t h : out) {
+      if (mesh.twin(h) < 0) {
+        if (open_ends == 0) start = h;
+        ++open_ends;
+      }
+    }
+    boundary[v] = open_ends > 0 ? 1 : 0;
+    // Rotate counter-clockwise: the outgoing halfedge after h is twin(prev(h)).
+    std::size_t visited = 0;
+    std::uint32_t h = start;
+    std::uint32_t lowest_face_in_fan = TriangleMesh::face_of(h);
+    do {
+      ++visited;
+      lowest_face_in_fan = std::min(lowest_face_in_fan, TriangleMesh::face_of(h));
+      const std::int32_t t = mesh.twin(TriangleMesh::prev(h));
+      if (t < 0) break;
+      h = static_cast<std::uint32_t>(t);
+    } while (h != start && visited <= out.size());
+    if (visited != out.size()) {
+      // Name the lowest face that is not in the fan of the vertex's lowest face.
+      std::vector<std::uint32_t> fan;
+      h = start;
+      std::size_t guard = 0;
+      do {
+        fan.push_back(TriangleMesh::face_of(h));
+        const std::int32_t t = mesh.twin(TriangleMesh::prev(h));
+        if (t < 0) break;
+        h = static_cast<std::uint32_t>(t);
+      } while (h != start && ++guard <= out.size());
+      std::uint32_t offending = UINT32_MAX;
+      for (std::uint32_t o : out) {
+        if (std::find(fan.begin(), fan.end(), TriangleMesh::face_of(o)) == fan.end()) {
+          offending = std::min(offending, TriangleMesh::face_of(o));
+        }
+      }
+      if (lowest_face_in_fan > offending) std::swap(lowest_face_in_fan, offending);
+      throw MeshError(ErrorCode::NonManifoldVertex,
+                      describe_face(offending, mesh.face(offending)) + " meets vertex " +
+                          std::to_string(v) + " in a separate fan from face " +
+                          std::to_string(lowest_face_in_fan) +
+                          " (non-manifold vertex: its faces do not form one disk)");
+    }
+  }
+  return boundary;
+}
+
+}  // namespace
+
+TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> faces)
+    : positions_(std::move(positions)), faces_(std::move(faces)) {
+  check_faces_and_positions(positions_, faces_);
+  const auto nv = static_cast<std::uint32_t>(positions_.size());
+  const std::size_t nh = 3 * faces_.size();
+  twin_ = link_twins(faces_);
 
   halfedge_edge_.assign(nh, 0);
   edge_first_halfedge_.reserve(nh / 2 + 16);
@@ -116,56 +200,7 @@ TriangleMesh::TriangleMesh(std::vector<Vec3> positions, std::vector<Triangle> fa
     for (std::uint32_t h = 0; h < nh; ++h) vertex_halfedges_[fill[origin(h)]++] = h;
   }
 
-  // Each vertex's faces must form a single fan (a disk or half-disk).
-  boundary_vertex_.assign(nv, 0);
-  for (std::uint32_t v = 0; v < nv; ++v) {
-    auto out = outgoing_halfedges(v);
-    if (out.empty()) continue;
-    std::uint32_t start = out[0];
-    std::size_t open_ends = 0;
-    for (std::uint32_t h : out) {
-      if (twin_[h] < 0) {
-        if (open_ends == 0) start = h;
-        ++open_ends;
-      }
-    }
-    boundary_vertex_[v] = open_ends > 0 ? 1 : 0;
-    // Rotate counter-clockwise: the outgoing halfedge after h is twin(prev(h)).
-    std::size_t visited = 0;
-    std::uint32_t h = start;
-    std::uint32_t lowest_face_in_fan = face_of(h);
-    do {
-      ++visited;
-      lowest_face_in_fan = std::min(lowest_face_in_fan, face_of(h));
-      const std::int32_t t = twin_[prev(h)];
-      if (t < 0) break;
-      h = static_cast<std::uint32_t>(t);
-    } while (h != start && visited <= out.size());
-    if (visited != out.size()) {
-      // Name the lowest face that is not in the fan of the vertex's lowest face.
-      std::vector<std::uint32_t> fan;
-      h = start;
-      std::size_t guard = 0;
-      do {
-        fan.push_back(face_of(h));
-        const std::int32_t t = twin_[prev(h)];
-        if (t < 0) break;
-        h = static_cast<std::uint32_t>(t);
-      } while (h != start && ++guard <= out.size());
-      std::uint32_t offending = UINT32_MAX;
-      for (std::uint32_t o : out) {
-        if (std::find(fan.begin(), fan.end(), face_of(o)) == fan.end()) {
-          offending = std::min(offending, face_of(o));
-        }
-      }
-      if (lowest_face_in_fan > offending) std::swap(lowest_face_in_fan, offending);
-      throw MeshError(ErrorCode::NonManifoldVertex,
-                      describe_face(offending, faces_[offending]) + " meets vertex " +
-                          std::to_string(v) + " in a separate fan from face " +
-                          std::to_string(lowest_face_in_fan) +
-                          " (non-manifold vertex: its faces do not form one disk)");
-    }
-  }
+  boundary_vertex_ = check_single_fans(*this);
 }
 
 Vec3 TriangleMesh::face_point(std::uint32_t f, const std::array<double, 3>& bary) const {

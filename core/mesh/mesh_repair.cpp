@@ -47,30 +47,19 @@ std::vector<std::int32_t> pair_halfedges(const std::vector<Triangle>& faces, std
   return partner;
 }
 
-}  // namespace
-
-RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<Triangle>& faces,
-                         const MeshRepairOptions& options) {
-  if (faces.empty()) {
-    throw MeshError(ErrorCode::EmptyMesh, "mesh has no faces (" + std::to_string(positions.size()) +
-                                     " vertices, 0 triangles): nothing to repair");
-  }
-  const auto nv = static_cast<std::uint32_t>(positions.size());
-  RepairedMesh out;
-  MeshRepairReport& report = out.report;
-  report.vertices_in = positions.size();
-  report.faces_in = faces.size();
-
-  // 1. Faces that repeat a vertex, then faces over the vertices of an earlier face.
+/// Step 1: which faces stay. Faces that repeat a vertex are dropped, then faces over the
+/// vertices of an earlier face (unless the two are a closed two-face surface).
+std::vector<std::uint8_t> faces_to_keep(const std::vector<Triangle>& faces, std::uint32_t nv,
+                                        MeshRepairReport& report) {
   std::vector<std::pair<Triangle, std::uint32_t>> by_vertices;
   by_vertices.reserve(faces.size());
   for (std::uint32_t f = 0; f < faces.size(); ++f) {
     Triangle t = faces[f];
     for (std::uint32_t v : t) {
       if (v >= nv) {
-        throw MeshError(ErrorCode::VertexOutOfRange, "face " + std::to_string(f) + " refers to vertex " +
-                                                std::to_string(v) + " but the mesh has " +
-                                                std::to_string(nv) + " vertices");
+        throw MeshError(ErrorCode::VertexOutOfRange,
+                        "face " + std::to_string(f) + " refers to vertex " + std::to_string(v) +
+                            " but the mesh has " + std::to_string(nv) + " vertices");
       }
     }
     if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) {
@@ -102,7 +91,8 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
     std::size_t j = i + 1;
     while (j < by_vertices.size() && by_vertices[j].first == by_vertices[i].first) ++j;
     const Triangle& t = by_vertices[i].first;
-    const std::uint32_t first = by_vertices[i].second, second = by_vertices[i + 1 < j ? i + 1 : i].second;
+    const std::uint32_t first = by_vertices[i].second,
+                        second = by_vertices[i + 1 < j ? i + 1 : i].second;
     const bool two_face_surface = j - i == 2 && !same_turn(faces[first], faces[second]) &&
                                   uses(t[0], t[1]) == 2 && uses(t[1], t[2]) == 2 &&
                                   uses(t[2], t[0]) == 2;
@@ -116,19 +106,16 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
     }
     i = j;
   }
-  std::vector<Triangle> kept;
-  for (std::uint32_t f = 0; f < faces.size(); ++f) {
-    if (keep[f]) {
-      kept.push_back(faces[f]);
-      out.source_face.push_back(f);
-    }
-  }
-  const auto nf = static_cast<std::uint32_t>(kept.size());
+  return keep;
+}
 
-  // 2. and 3. Crowded edges are cut; each sheet (faces joined through edges of two faces) is
-  // oriented by a breadth-first search from its lowest face, and cut where the search meets
-  // itself the wrong way round.
-  std::vector<std::int32_t> partner = pair_halfedges(kept, report.edges_cut);
+/// Steps 2 and 3, orientation: each sheet (faces joined through edges of two faces) is
+/// oriented by a breadth-first search from its lowest face, and cut (partner -1) where the
+/// search meets itself the wrong way round. Returns which faces turn.
+std::vector<std::uint8_t> orient_sheets(const std::vector<Triangle>& kept,
+                                        std::vector<std::int32_t>& partner, bool orient,
+                                        MeshRepairReport& report) {
+  const auto nf = static_cast<std::uint32_t>(kept.size());
   std::vector<std::uint8_t> flip(nf, 0), visited(nf, 0);
   std::vector<std::uint32_t> queue;
   for (std::uint32_t seed = 0; seed < nf; ++seed) {
@@ -144,7 +131,7 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
         // Consistent when the two run the edge in opposite directions once turned.
         const bool opposite = corner_origin(kept, h) == corner_target(kept, p);
         const bool wanted_flip = opposite ? flip[f] : !flip[f];
-        if (!visited[g] && options.orient) {
+        if (!visited[g] && orient) {
           visited[g] = 1;
           flip[g] = wanted_flip;
           queue.push_back(g);
@@ -166,6 +153,13 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
       for (std::uint32_t f : queue) flip[f] = !flip[f];
     }
   }
+  return flip;
+}
+
+/// Turns the flipped faces of `kept` (corners 1 and 2 swapped) and their halfedges' partners.
+void turn_faces(const std::vector<std::uint8_t>& flip, std::vector<Triangle>& kept,
+                std::vector<std::int32_t>& partner, MeshRepairReport& report) {
+  const auto nf = static_cast<std::uint32_t>(kept.size());
   // Turning face (a, b, c) into (a, c, b) reverses its halfedges: a -> b was its halfedge 0
   // and b -> a is now its halfedge 2, and so on (i becomes 2 - i). Partners follow.
   const auto turned = [&flip](std::uint32_t h) {
@@ -179,15 +173,22 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
     }
   }
   partner = std::move(turned_partner);
-  out.flipped = std::move(flip);
   for (std::uint32_t f = 0; f < nf; ++f) {
-    if (out.flipped[f]) {
+    if (flip[f]) {
       std::swap(kept[f][1], kept[f][2]);
       ++report.faces_flipped;
     }
   }
 
-  // 4. One vertex per fan. Corner h (of face h / 3, at the origin of halfedge h) shares its
+}
+
+/// Step 4: one vertex per fan. Returns the source vertex of every vertex of the output
+/// (copies appended after the input's), with `kept`'s corners moved to the copies.
+std::vector<std::uint32_t> split_vertex_fans(std::vector<Triangle>& kept,
+                                            const std::vector<std::int32_t>& partner,
+                                            std::uint32_t nv, MeshRepairReport& report) {
+  const auto nf = static_cast<std::uint32_t>(kept.size());
+  // Corner h (of face h / 3, at the origin of halfedge h) shares its
   // vertex with the corner across each of its two edges at that vertex. No directed edge is
   // then used twice: two faces along a cut edge that stay in one fan at an end are that fan's
   // two ends, and a consistently oriented fan runs its end edges in opposite directions.
@@ -237,11 +238,49 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
       }
     }
   }
+  return source_vertex;
+}
+
+}  // namespace
+
+RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<Triangle>& faces,
+                         const MeshRepairOptions& options) {
+  if (faces.empty()) {
+    throw MeshError(ErrorCode::EmptyMesh, "mesh has no faces (" + std::to_string(positions.size()) +
+                                     " vertices, 0 triangles): nothing to repair");
+  }
+  const auto nv = static_cast<std::uint32_t>(positions.size());
+  RepairedMesh out;
+  MeshRepairReport& report = out.report;
+  report.vertices_in = positions.size();
+  report.faces_in = faces.size();
+
+  // 1. Faces that repeat a vertex, then faces over the vertices of an earlier face.
+  const std::vector<std::uint8_t> keep = faces_to_keep(faces, nv, report);
+  std::vector<Triangle> kept;
+  for (std::uint32_t f = 0; f < faces.size(); ++f) {
+    if (keep[f]) {
+      kept.push_back(faces[f]);
+      out.source_face.push_back(f);
+    }
+  }
+
+  // 2. and 3. Crowded edges are cut; each sheet (faces joined through edges of two faces) is
+  // oriented by a breadth-first search from its lowest face, and cut where the search meets
+  // itself the wrong way round.
+  std::vector<std::int32_t> partner = pair_halfedges(kept, report.edges_cut);
+  std::vector<std::uint8_t> flip = orient_sheets(kept, partner, options.orient, report);
+  turn_faces(flip, kept, partner, report);
+  out.flipped = std::move(flip);
+
+  // 4. One vertex per fan.
+  std::vector<std::uint32_t> source_vertex = split_vertex_fans(kept, partner, nv, report);
   report.vertices_added = source_vertex.size() - nv;
 
   out.positions.reserve(source_vertex.size());
   out.positions.assign(positions.begin(), positions.end());
-  for (std::size_t v = nv; v < source_vertex.size(); ++v) out.positions.push_back(positions[source_vertex[v]]);
+  for (std::size_t v = nv; v < source_vertex.size(); ++v)
+    out.positions.push_back(positions[source_vertex[v]]);
   out.faces = std::move(kept);
   out.source_vertex = std::move(source_vertex);
   report.vertices_out = out.positions.size();

@@ -3,10 +3,10 @@
 // converting sets of polygons to manifold surfaces", IEEE TVCG 2001).
 //
 // TriangleMesh takes only oriented 2-manifolds and names the first face that is not (mesh.h);
-// scanned and modelled meshes often are not: a vertex where two sheets touch (pig.stl, teapot),
-// faces turned the wrong way round (truck.obj), edges with three or more faces and triangles
-// listed twice (happy-buddha-dirty.ply). repair_mesh turns such a soup into a mesh TriangleMesh
-// accepts, changing as little as it can and saying what it changed:
+// scanned and modelled meshes often are not: a vertex where two sheets touch, faces turned the
+// wrong way round, edges with three or more faces and triangles listed twice. repair_mesh
+// turns such a soup into a mesh TriangleMesh accepts, changing as little as it can and saying
+// what it changed:
 //  1. faces that repeat a vertex index are dropped, and so are faces over the same three
 //     vertices as an earlier face (either orientation; but a face and its reverse that share
 //     their edges with no other face are a closed surface of two faces, and both stay);

@@ -8,6 +8,7 @@
 #include <numeric>
 #include <string>
 
+#include "core/base/tuning.h"
 #include "core/base/union_find.h"
 
 namespace geoprox {
@@ -45,16 +46,10 @@ std::string format_number(double value) {
   return buf;
 }
 
-}  // namespace
-
-MeshReport compute_mesh_report(const TriangleMesh& mesh, const IntrinsicGeometry& geometry) {
-  MeshReport report;
+/// Components, boundary edges and loops, isolated vertices, genus per component.
+void report_topology(const TriangleMesh& mesh, MeshReport& report) {
   const auto num_faces = static_cast<std::uint32_t>(mesh.num_faces());
   const auto num_vertices = static_cast<std::uint32_t>(mesh.num_vertices());
-  report.vertices = mesh.num_vertices();
-  report.faces = mesh.num_faces();
-  report.edges = mesh.num_edges();
-
   // Connected components of faces across shared edges.
   UnionFind components(num_faces);  // labelled by their lowest face
   for (std::uint32_t h = 0; h < mesh.num_halfedges(); ++h) {
@@ -108,7 +103,13 @@ MeshReport compute_mesh_report(const TriangleMesh& mesh, const IntrinsicGeometry
   for (std::size_t c = 0; c < report.components; ++c) {
     report.genus_per_component[c] = (2 - chi[c] - loops[c]) / 2;
   }
+}
 
+/// Degenerate, thin and obtuse faces, area and quality, saddles: from the intrinsic lengths.
+void report_geometry(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                     MeshReport& report) {
+  const auto num_faces = static_cast<std::uint32_t>(mesh.num_faces());
+  const auto num_vertices = static_cast<std::uint32_t>(mesh.num_vertices());
   // Faces: degeneracy, obtuse angles, area and quality, all from the intrinsic lengths.
   report.lo_quality_min = std::numeric_limits<double>::infinity();
   double quality_sum = 0;
@@ -131,9 +132,16 @@ MeshReport compute_mesh_report(const TriangleMesh& mesh, const IntrinsicGeometry
   const double full_turn = 2 * std::numbers::pi;
   for (std::uint32_t v = 0; v < num_vertices; ++v) {
     if (mesh.is_isolated_vertex(v) || mesh.is_boundary_vertex(v)) continue;
-    if (geometry.angle_sum(v) > full_turn * (1 + 1e-9)) ++report.saddle_vertices;
+    if (geometry.angle_sum(v) > full_turn * (1 + tuning::kRelativeSlack)) {
+      ++report.saddle_vertices;
+    }
   }
+}
 
+/// Bounding box and edge lengths.
+void report_extent(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                   MeshReport& report) {
+  const auto num_vertices = static_cast<std::uint32_t>(mesh.num_vertices());
   // Bounding box of the surface: vertices used by faces (isolated ones are not on it).
   constexpr double inf = std::numeric_limits<double>::infinity();
   report.bbox_min = {inf, inf, inf};
@@ -153,6 +161,18 @@ MeshReport compute_mesh_report(const TriangleMesh& mesh, const IntrinsicGeometry
   report.max_edge_length = *longest;
   report.mean_edge_length =
       std::accumulate(lengths.begin(), lengths.end(), 0.0) / static_cast<double>(lengths.size());
+}
+
+}  // namespace
+
+MeshReport compute_mesh_report(const TriangleMesh& mesh, const IntrinsicGeometry& geometry) {
+  MeshReport report;
+  report.vertices = mesh.num_vertices();
+  report.faces = mesh.num_faces();
+  report.edges = mesh.num_edges();
+  report_topology(mesh, report);
+  report_geometry(mesh, geometry, report);
+  report_extent(mesh, geometry, report);
   return report;
 }
 

@@ -21,7 +21,8 @@ struct MeshReport {
   std::size_t components = 0;          ///< connected components of faces
   std::vector<long> genus_per_component;  ///< (2 - chi - boundary loops) / 2 per component
   std::size_t degenerate_faces = 0;    ///< zero-area faces (IntrinsicGeometry::is_degenerate_face)
-  std::size_t thin_faces = 0;          ///< other faces thinner than 1e-5 (IntrinsicGeometry::is_thin_face)
+  /// other faces thinner than IntrinsicGeometryOptions::thin_face_ratio (is_thin_face)
+  std::size_t thin_faces = 0;
   std::size_t obtuse_faces = 0;        ///< faces with an angle > 90 degrees
   std::size_t saddle_vertices = 0;     ///< interior vertices with angle sum > 2 pi
   Vec3 bbox_min, bbox_max;

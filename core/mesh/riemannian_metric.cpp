@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/base/errors.h"
+#include "core/base/tuning.h"
 
 namespace geoprox {
 
@@ -87,15 +88,15 @@ double quadratic_3d(const double* m, const Vec3& d) {
 }
 
 /// Throws TriangleInequality for the first face whose three edge lengths break a triangle
-/// inequality by more than 1e-12 of its perimeter (the tolerance of IntrinsicGeometry). The
-/// message is "face F: <before>A, B, C (edges I, J, K)<after>".
+/// inequality by more than tuning::kTriangleInequalitySlack of its perimeter (as
+/// IntrinsicGeometry does). The message is "face F: <before>A, B, C (edges I, J, K)<after>".
 void check_triangle_inequalities(const TriangleMesh& mesh, const std::vector<double>& lengths,
                                  const std::string& before, const std::string& after) {
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
     const std::uint32_t i = mesh.edge_of(3 * f), j = mesh.edge_of(3 * f + 1),
                         k = mesh.edge_of(3 * f + 2);
     const double a = lengths[i], b = lengths[j], c = lengths[k];
-    const double slack = 1e-12 * (a + b + c);
+    const double slack = tuning::kTriangleInequalitySlack * (a + b + c);
     if (a > b + c + slack || b > a + c + slack || c > a + b + slack) {
       throw InvalidInput(ErrorCode::TriangleInequality,
                          "face " + std::to_string(f) + ": " + before + number(a) + ", " +
@@ -190,7 +191,8 @@ RiemannianMetric parse_metric(std::istream& in, const std::string& name) {
   }
   if (in.bad()) throw FileError(ErrorCode::ReadError, name + ": read error");
   if (!have_header) {
-    throw FileError(ErrorCode::ParseError, name + ": empty; expected the header 'geoprox-metric 1 KIND'");
+    throw FileError(ErrorCode::ParseError,
+                    name + ": empty; expected the header 'geoprox-metric 1 KIND'");
   }
   return metric;
 }
@@ -231,8 +233,9 @@ void validate_metric(const TriangleMesh& mesh, const RiemannianMetric& metric,
                            "; it needs one row per " + (per_edge ? "edge" : "face"));
   }
   if (!(options.definiteness_tolerance >= 0) || !std::isfinite(options.definiteness_tolerance)) {
-    throw InvalidInput(ErrorCode::BadTolerance, "definiteness_tolerance must be finite and >= 0, not " +
-                                           number(options.definiteness_tolerance));
+    throw InvalidInput(ErrorCode::BadTolerance,
+                       "definiteness_tolerance must be finite and >= 0, not " +
+                           number(options.definiteness_tolerance));
   }
   for (std::size_t row = 0; row < rows; ++row) {
     const double* v = metric.values.data() + row * per_row;

@@ -41,8 +41,9 @@ void SurfacePoint::validate(const TriangleMesh& mesh) const {
       double sum = 0;
       for (double b : bary) {
         if (!std::isfinite(b) || b < -kBarycentricNegativeTolerance) {
-          throw InvalidInput(ErrorCode::BadBarycentric, "barycentric coordinates of " + to_string() +
-                                                   " must be finite and non-negative");
+          throw InvalidInput(
+              ErrorCode::BadBarycentric,
+              "barycentric coordinates of " + to_string() + " must be finite and non-negative");
         }
         sum += b;
       }
@@ -62,7 +63,8 @@ Vec3 SurfacePoint::position(const TriangleMesh& mesh) const {
     case Kind::Vertex:
       return mesh.position(id);
     case Kind::Edge:
-      return (1 - t) * mesh.position(mesh.edge_origin(id)) + t * mesh.position(mesh.edge_target(id));
+      return (1 - t) * mesh.position(mesh.edge_origin(id)) +
+             t * mesh.position(mesh.edge_target(id));
     case Kind::Face:
       return mesh.face_point(id, bary);
   }

@@ -272,7 +272,8 @@ TEST(ClosestPointTest, ResultsDoNotDependOnLeafSize) {
   const double diagonal = dist(lo, hi);
   Rng rng(14);
   std::vector<Vec3> queries;
-  for (int i = 0; i < 300; ++i) queries.push_back(random_in_box(rng, lo - 0.2 * (hi - lo), hi + 0.2 * (hi - lo)));
+  for (int i = 0; i < 300; ++i)
+    queries.push_back(random_in_box(rng, lo - 0.2 * (hi - lo), hi + 0.2 * (hi - lo)));
   for (int i = 0; i < 300; ++i) {
     const Vec3 on = random_face_point(*mesh, rng, 0).position(*mesh);
     queries.push_back(on + (0.01 * diagonal * rng.uniform()) * random_unit(rng));
@@ -437,8 +438,10 @@ TEST(ClosestPointTest, ExactTiesGoToTheLowestFaceId) {
       if (mesh.twin(h) < 0) continue;
       ++interior_edges;
       const std::uint32_t lowest =
-          std::min(TriangleMesh::face_of(h), TriangleMesh::face_of(static_cast<std::uint32_t>(mesh.twin(h))));
-      const Vec3 midpoint = 0.5 * (mesh.position(mesh.edge_origin(e)) + mesh.position(mesh.edge_target(e)));
+          std::min(TriangleMesh::face_of(h),
+                   TriangleMesh::face_of(static_cast<std::uint32_t>(mesh.twin(h))));
+      const Vec3 midpoint =
+          0.5 * (mesh.position(mesh.edge_origin(e)) + mesh.position(mesh.edge_target(e)));
       const ClosestPointResult r = index.closest(midpoint + Vec3{0, 0, 0.25});
       ASSERT_EQ(r.point.kind, SurfacePoint::Kind::Face) << "edge " << e;
       EXPECT_EQ(r.point.id, lowest) << "edge " << e << ", leaf_size " << leaf_size;

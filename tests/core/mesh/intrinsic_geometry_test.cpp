@@ -29,9 +29,13 @@ void expect_records_match_mesh(const TriangleMesh& mesh, const IntrinsicGeometry
     ASSERT_EQ(c.target, mesh.target(h)) << "halfedge " << h;
     ASSERT_EQ(c.opposite, mesh.opposite_vertex(h)) << "halfedge " << h;
     // (No halfedge beyond a short side: no window goes through it.)
-    ASSERT_EQ(c.twin_prev, (c.short_sides & HalfedgeCrossing::kShortPrev) ? -1 : mesh.twin(TriangleMesh::prev(h)))
+    ASSERT_EQ(c.twin_prev, (c.short_sides & HalfedgeCrossing::kShortPrev)
+                               ? -1
+                               : mesh.twin(TriangleMesh::prev(h)))
         << "halfedge " << h;
-    ASSERT_EQ(c.twin_next, (c.short_sides & HalfedgeCrossing::kShortNext) ? -1 : mesh.twin(TriangleMesh::next(h)))
+    ASSERT_EQ(c.twin_next, (c.short_sides & HalfedgeCrossing::kShortNext)
+                               ? -1
+                               : mesh.twin(TriangleMesh::next(h)))
         << "halfedge " << h;
     ASSERT_EQ(&c.layout, &geometry.layout(h)) << "halfedge " << h;
     ASSERT_EQ(c.layout.length, geometry.edge_length(mesh.edge_of(h))) << "halfedge " << h;
@@ -122,9 +126,12 @@ TEST(IntrinsicGeometry, LaysOutShortSidesFromTheLongestSide) {
     const double bc = geometry.edge_length(mesh.edge_of(TriangleMesh::next(h)));
     const double scale = std::max({lay.length, ca, bc});
     EXPECT_NEAR(lay.cx * lay.cx + lay.cy * lay.cy, ca * ca, 1e-14 * scale * scale) << h;
-    EXPECT_NEAR((lay.cx - lay.length) * (lay.cx - lay.length) + lay.cy * lay.cy, bc * bc, 1e-14 * scale * scale) << h;
+    EXPECT_NEAR((lay.cx - lay.length) * (lay.cx - lay.length) + lay.cy * lay.cy, bc * bc,
+                1e-14 * scale * scale)
+        << h;
     const bool short_side = mesh.edge_of(h) == mesh.edge_of(0);
-    EXPECT_EQ((geometry.crossing(h).short_sides & HalfedgeCrossing::kShortSide) != 0, short_side) << h;
+    EXPECT_EQ((geometry.crossing(h).short_sides & HalfedgeCrossing::kShortSide) != 0, short_side)
+        << h;
   }
   // The short side (halfedges 0 and 3) is prev of halfedges 1 and 4 and next of 2 and 5 (faces
   // (0 1 2) and (1 0 3)): their records name no halfedge beyond it, though the mesh has one.

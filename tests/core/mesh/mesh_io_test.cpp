@@ -1,9 +1,15 @@
-// load_mesh: shipped meshes, every format, ids in file order, and the refusal of bad files.
+// load_mesh: shipped meshes, every format, ids in file order, and the refusal of bad files;
+// OpenMesh's readers as an independent reference on the shipped meshes.
 #include "core/mesh/mesh_io.h"
 
 #include <gtest/gtest.h>
 
+// OpenMesh's IO header goes before its mesh types (it registers the readers).
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -125,7 +131,7 @@ TEST(MeshIo, ShippedIdsAreFileOrder) {
   const std::string cheese = shipped_mesh_file("cheese.off");
   EXPECT_EQ(load_mesh(cheese).face(0), first_off_face(cheese));
   // The first vertex line of spot.obj is "v 0.348799 -0.334989 -0.0832331"; the file's decimal
-  // digits are kept in double precision, not OpenMesh's float.
+  // digits are kept in double precision, not rounded to float.
   const TriangleMesh mesh = load_mesh(spot);
   EXPECT_EQ(mesh.position(0).x, 0.348799);
   EXPECT_EQ(mesh.position(0).y, -0.334989);
@@ -251,7 +257,7 @@ TEST(MeshIoRefusal, BadPlyTriangleStrips) {
       file("strip-twice", header + strips + strips + "end_header\n" + vertices +
                               "3 0 1 2\n3 1 3 2\n"),
       "ParseError", {"a second PLY element 'tristrips'"});
-  // OpenMesh would read the vertices at the wrong place behind strips it skips.
+  // Readers that do not know tristrips would find the vertices at the wrong place behind them.
   expect_refusal<FileError>(
       file("strip-first", "ply\nformat ascii 1.0\n" + strips +
                               "element vertex 4\nproperty float x\nproperty float y\n"
@@ -314,7 +320,7 @@ TEST(MeshIo, ObjNegativeIndicesAndFullPrecision) {
   EXPECT_EQ(mesh.position(0).x, 0.1);  // double 0.1, not float 0.1f
 }
 
-TEST(MeshIo, OpenMeshWarningsDoNotReachStderr) {
+TEST(MeshIo, MissingMaterialLibraryLoadsQuietly) {
   ::testing::internal::CaptureStderr();
   const TriangleMesh mesh = load_mesh(test_data_file("missing_material.obj"));
   const std::string printed = ::testing::internal::GetCapturedStderr();
@@ -358,7 +364,7 @@ TEST(MeshIoRefusal, EmptyFile) {
 }
 
 TEST(MeshIoRefusal, NanCoordinateReachesTheCheck) {
-  // OpenMesh's OBJ reader alone would drop the line and renumber the later vertices.
+  // Refused naming the line, not dropped (which would renumber the later vertices).
   expect_refusal<MeshError>(test_data_file("nan_coordinate.obj"), "NonFiniteCoordinate",
                             {"nan_coordinate.obj:3", "vertex 1", "nan"});
 }
@@ -366,7 +372,7 @@ TEST(MeshIoRefusal, NanCoordinateReachesTheCheck) {
 TEST(MeshIoRefusal, QuadFace) {
   expect_refusal<MeshError>(test_data_file("quad_face.obj"), "NonTriangleFace",
                             {"quad_face.obj:8", "face 1 has 4 corners"});
-  // Binary PLY polygons reach the check through OpenMesh's importer.
+  // Binary PLY polygons too.
   expect_refusal<MeshError>(test_data_file("quad_binary.ply"), "NonTriangleFace",
                             {"quad_binary.ply", "face 1 has 4 corners"});
 }
@@ -382,7 +388,8 @@ TEST(MeshIoRefusal, StlNanCornerIsNotWeldedAway) {
 }
 
 TEST(MeshIoRefusal, FileErrors) {
-  expect_refusal<FileError>(test_data_file("no_such_mesh.obj"), "FileNotFound", {"no_such_mesh.obj"});
+  expect_refusal<FileError>(test_data_file("no_such_mesh.obj"), "FileNotFound",
+                            {"no_such_mesh.obj"});
   expect_refusal<FileError>(test_data_file(""), "FileNotFound", {"directory"});
   expect_refusal<FileError>(test_data_file("unknown_format.xyz"), "UnsupportedFormat",
                             {"unknown_format.xyz", ".obj"});
@@ -392,14 +399,119 @@ TEST(MeshIoRefusal, FileErrors) {
                             {"truncated.off", "vertex 3 of the 5"});
 }
 
-TEST(MeshIoRefusal, OpenMeshFailureIsAParseErrorWithItsMessage) {
-  // "vt 0.5" (a 1D texture coordinate, legal OBJ) makes OpenMesh's OBJ reader give up; what it
-  // would have printed on stderr ends up in the message instead.
+/// Writes `text` to a file named geoprox-NAME in the system's temporary directory.
+std::string temporary_file(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "geoprox-" + name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+TEST(MeshIo, ObjTextureCoordinatesOfOneOrThreeValuesAreSkipped) {
+  // "vt u", "vt u v" and "vt u v w" are all legal OBJ; only positions and the position index
+  // of each corner count.
   ::testing::internal::CaptureStderr();
-  expect_refusal<FileError>(
-      test_data_file("texcoord_1d.obj"), "ParseError",
-      {"texcoord_1d.obj", "OpenMesh could not read this OBJ file", "texture coordinate"});
+  const TriangleMesh single = load_mesh(test_data_file("texcoord_1d.obj"));
   EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+  ASSERT_EQ(single.num_vertices(), 3u);
+  ASSERT_EQ(single.num_faces(), 1u);
+  EXPECT_EQ(single.face(0), (Triangle{0, 1, 2}));
+  EXPECT_EQ(single.position(1).x, 1.0);
+
+  const std::string square = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.5\n";
+  const std::string faces = "f 1/1 2/2 3/3\nf 2/2/1 4/3/1 3/1/1\nvn 0 0 1\n";
+  for (const auto& [name, texcoords] : std::vector<std::pair<std::string, std::string>>{
+           {"vt1.obj", "vt 0.5\nvt 0.25\nvt 1\n"},
+           {"vt3.obj", "vt 0.5 0.5 0\nvt 0.25 0.1 0.2\nvt 1 0 1\n"},
+           {"vt-mixed.obj", "vt 0.5\nvt 0.25 0.1\nvt 1 0 1\n"}}) {
+    SCOPED_TRACE(name);
+    const TriangleMesh mesh = load_mesh(temporary_file(name, square + texcoords + faces));
+    ASSERT_EQ(mesh.num_vertices(), 4u);
+    ASSERT_EQ(mesh.num_faces(), 2u);
+    EXPECT_EQ(mesh.face(0), (Triangle{0, 1, 2}));
+    EXPECT_EQ(mesh.face(1), (Triangle{1, 3, 2}));
+    EXPECT_EQ(mesh.position(3).z, 0.5);
+  }
+}
+
+TEST(MeshIo, PlyPropertiesBesideTheFaceIndicesAreSteppedOver) {
+  // Legal PLY: a scalar or a list before a face's index list, a list in the vertex element.
+  const std::string square = "0 0 0\n1 0 0\n0 1 0\n1 1 0.5\n";
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
+  const std::string header = "ply\nformat ascii 1.0\nelement vertex 4\n" + xyz;
+  const std::string indices = "property list uchar int vertex_indices\n";
+  for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
+           {"face-flag-first.ply", header + "element face 2\nproperty uchar flags\n" + indices +
+                                       "end_header\n" + square + "7 3 0 1 2\n7 3 1 3 2\n"},
+           {"face-texcoords-first.ply",
+            header + "element face 2\nproperty list uchar float texcoord\n" + indices +
+                "end_header\n" + square + "2 0.5 0.5 3 0 1 2\n0 3 1 3 2\n"},
+           {"vertex-list.ply", "ply\nformat ascii 1.0\nelement vertex 4\n" + xyz +
+                                   "property list uchar float extra\nelement face 2\n" +
+                                   indices + "end_header\n0 0 0 0\n1 0 0 2 5 6\n0 1 0 0\n" +
+                                   "1 1 0.5 1 7\n3 0 1 2\n3 1 3 2\n"}}) {
+    SCOPED_TRACE(name);
+    const TriangleMesh mesh = load_mesh(temporary_file(name, text));
+    ASSERT_EQ(mesh.num_vertices(), 4u);
+    ASSERT_EQ(mesh.num_faces(), 2u);
+    EXPECT_EQ(mesh.face(0), (Triangle{0, 1, 2}));
+    EXPECT_EQ(mesh.face(1), (Triangle{1, 3, 2}));
+    EXPECT_EQ(mesh.position(2).y, 1.0);
+    EXPECT_EQ(mesh.position(3).z, 0.5);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// OpenMesh's readers, an independent implementation, read the shipped meshes and the small
+// files of every format as geoprox does: the same vertices in the same order (to a float's last
+// bit: OpenMesh holds floats) and the same faces (up to where each starts its corner cycle).
+
+using OpenMeshTriangles = OpenMesh::TriMesh_ArrayKernelT<>;
+
+/// t turned so that its smallest vertex comes first (same cycle, same orientation).
+Triangle canonical_rotation(Triangle t) {
+  std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+  return t;
+}
+
+bool same_float(double openmesh_value, double geoprox_value) {
+  const float a = static_cast<float>(openmesh_value);
+  const float b = static_cast<float>(geoprox_value);
+  return a == b || std::nextafter(b, a) == a;
+}
+
+TEST(MeshIoReference, OpenMeshReadsTheSameVerticesAndFaces) {
+  for (const std::string& path :
+       {shipped_mesh_file("spot.obj"), shipped_mesh_file("blade.off"),
+        shipped_mesh_file("plane_holes.obj"), shipped_mesh_file("cheese.off"),
+        shipped_mesh_file("ChineseDragon-10kv.off"), test_data_file("octahedron.ply"),
+        test_data_file("octahedron_binary.ply"), test_data_file("tetrahedron_ascii.stl"),
+        test_data_file("tetrahedron_binary.stl")}) {
+    SCOPED_TRACE(path);
+    const TriangleMesh mesh = load_mesh(path);
+    OpenMeshTriangles reference;
+    ASSERT_TRUE(OpenMesh::IO::read_mesh(reference, path));
+    ASSERT_EQ(reference.n_vertices(), mesh.num_vertices());
+    ASSERT_EQ(reference.n_faces(), mesh.num_faces());
+    std::size_t moved = 0, different_faces = 0;
+    for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+      const OpenMeshTriangles::Point& p =
+          reference.point(OpenMesh::VertexHandle(static_cast<int>(v)));
+      const Vec3& q = mesh.position(v);
+      moved += !same_float(p[0], q.x) || !same_float(p[1], q.y) || !same_float(p[2], q.z);
+    }
+    for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
+      Triangle corners{};
+      std::size_t i = 0;
+      for (const OpenMesh::VertexHandle& v :
+           reference.fv_range(OpenMesh::FaceHandle(static_cast<int>(f)))) {
+        if (i < 3) corners[i] = static_cast<std::uint32_t>(v.idx());
+        ++i;
+      }
+      different_faces += i != 3 || canonical_rotation(corners) != canonical_rotation(mesh.face(f));
+    }
+    EXPECT_EQ(moved, 0u);
+    EXPECT_EQ(different_faces, 0u);
+  }
 }
 
 TEST(MeshIoRefusal, TruncatedBinaryPly) {
@@ -407,9 +519,9 @@ TEST(MeshIoRefusal, TruncatedBinaryPly) {
                             {"cut_binary.ply", "ends in face 6 of the 8"});
 }
 
-TEST(MeshIoRefusal, BinaryPlyThatOpenMeshWouldMisread) {
-  // With a comment as the last header line, OpenMesh 9 reads the binary data one byte off and
-  // reports success (vertex 0 comes out as (5.8e-39, 0, 0)); geoprox refuses the file.
+TEST(MeshIoRefusal, BinaryPlyWithACommentBeforeEndHeader) {
+  // Readers that find the binary data by its offset from the last property token read it
+  // shifted behind such a comment; geoprox refuses the file rather than read it differently.
   expect_refusal<FileError>(test_data_file("comment_before_end_header.ply"), "ParseError",
                             {"comment_before_end_header.ply", "end_header"});
 }
@@ -451,7 +563,7 @@ TEST(MeshIoFuzzRegression, PlyElementWithoutPropertiesIsRefused) {
 }
 
 TEST(MeshIoFuzzRegression, PlyVersionOtherThanOneIsRefused) {
-  // "format binary_little_endian 1444...4.0" (1.4e121): OpenMesh's reader asked for 2 GiB.
+  // "format binary_little_endian 1444...4.0": only version 1.0 exists.
   expect_refusal<FileError>(fuzz_reproducer_file("ply-huge-version"), "ParseError",
                             {":2:", "unsupported PLY version", "only 1.0"});
 }

@@ -28,7 +28,8 @@ using test_support::spot;
 double longest_edge(const std::vector<Vec3>& positions, const std::vector<Triangle>& faces) {
   double longest = 0;
   for (const Triangle& t : faces) {
-    for (int k = 0; k < 3; ++k) longest = std::max(longest, dist(positions[t[k]], positions[t[(k + 1) % 3]]));
+    for (int k = 0; k < 3; ++k)
+      longest = std::max(longest, dist(positions[t[k]], positions[t[(k + 1) % 3]]));
   }
   return longest;
 }
@@ -93,8 +94,9 @@ RefinedMesh check_refinement(const TriangleMesh& input, double limit, const std:
           << "face " << f << " corner " << k;
     }
     parts_area[g] += area(r.positions[t[0]], r.positions[t[1]], r.positions[t[2]]);
-    smallest_part_angle[g] = std::min(
-        smallest_part_angle[g], smallest_angle(r.positions[t[0]], r.positions[t[1]], r.positions[t[2]]));
+    smallest_part_angle[g] =
+        std::min(smallest_part_angle[g],
+                 smallest_angle(r.positions[t[0]], r.positions[t[1]], r.positions[t[2]]));
   }
   int failures = 0;
   for (std::uint32_t g = 0; g < input.num_faces(); ++g) {
@@ -153,8 +155,11 @@ TEST(MeshRefinement, ExactDistancesAreTheSameOnBothMeshes) {
     // Face points, vertices and points on edges, in turn.
     auto any = [&](std::uint32_t k) {
       const auto faces = static_cast<std::uint32_t>(m.mesh->num_faces());
-      if (k % 3 == 1) return SurfacePoint::vertex(rng.below(static_cast<std::uint32_t>(m.mesh->num_vertices())));
-      if (k % 3 == 2) return SurfacePoint::edge(rng.below(static_cast<std::uint32_t>(m.mesh->num_edges())), rng.uniform());
+      if (k % 3 == 1)
+        return SurfacePoint::vertex(rng.below(static_cast<std::uint32_t>(m.mesh->num_vertices())));
+      if (k % 3 == 2)
+        return SurfacePoint::edge(rng.below(static_cast<std::uint32_t>(m.mesh->num_edges())),
+                                  rng.uniform());
       const auto b = rng.barycentrics(1e-3);
       return SurfacePoint::face(rng.below(faces), b[0], b[1], b[2]);
     };

@@ -211,7 +211,8 @@ TEST(MeshRepair, OrientsAProjectivePlaneByCuttingIt) {
 // face repeated, a face repeated reversed, two vertices glued into one, a face removed.
 MeshSoup damaged_grid(std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  const auto a = static_cast<std::uint32_t>(3 + rng() % 5), b = static_cast<std::uint32_t>(3 + rng() % 5);
+  const auto a = static_cast<std::uint32_t>(3 + rng() % 5),
+             b = static_cast<std::uint32_t>(3 + rng() % 5);
   const bool closed = rng() % 2 == 0;
   constexpr double kTwoPi = 6.283185307179586;
   MeshSoup soup;
@@ -254,7 +255,8 @@ MeshSoup damaged_grid(std::uint64_t seed) {
         break;
       }
       default:
-        if (faces.size() > 2) faces.erase(faces.begin() + static_cast<std::ptrdiff_t>(pick(faces.size())));
+        if (faces.size() > 2)
+          faces.erase(faces.begin() + static_cast<std::ptrdiff_t>(pick(faces.size())));
     }
   }
   return soup;

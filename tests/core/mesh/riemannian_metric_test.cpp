@@ -72,7 +72,8 @@ const TestMesh& grid() { return jittered_unit_grid(); }
 
 RiemannianMetric scaling_2d(const TriangleMesh& mesh, double s) {
   RiemannianMetric m{MetricKind::FaceTensor2D, {}};
-  for (std::size_t f = 0; f < mesh.num_faces(); ++f) m.values.insert(m.values.end(), {s * s, 0, s * s});
+  for (std::size_t f = 0; f < mesh.num_faces(); ++f)
+    m.values.insert(m.values.end(), {s * s, 0, s * s});
   return m;
 }
 
@@ -121,7 +122,8 @@ TEST(RiemannianMetric, ParseErrorsNameTheLine) {
       {"geoprox-graph 1 edge-lengths\n", "m.txt:1: expected the header"},
       {"geoprox-metric 2 edge-lengths\n", "m.txt:1: the header must be"},
       {"geoprox-metric 1 face-tensor-4d\n", "m.txt:1: unknown metric kind 'face-tensor-4d'"},
-      {"geoprox-metric 1 face-tensor-2d\n1 0 1\n1 0\n", "m.txt:3: expected 3 numbers for face 1, got 2"},
+      {"geoprox-metric 1 face-tensor-2d\n1 0 1\n1 0\n",
+       "m.txt:3: expected 3 numbers for face 1, got 2"},
       {"geoprox-metric 1 face-tensor-3d\n1 0 0 1 0 x\n", "m.txt:2: 'x' is not a number"},
       {"geoprox-metric 1 edge-lengths\n1 2\n", "m.txt:2: expected 1 number for edge 0, got 2"},
   };
