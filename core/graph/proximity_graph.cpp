@@ -10,13 +10,14 @@
 #include <exception>
 #include <limits>
 #include <numbers>
-#include <numeric>
 #include <optional>
 #include <queue>
 #include <string>
 
-#include "core/geodesic/covering_radius.h"
 #include "core/base/errors.h"
+#include "core/base/tuning.h"
+#include "core/base/union_find.h"
+#include "core/geodesic/covering_radius.h"
 #include "core/geodesic/exact_geodesic.h"
 #include "core/geodesic/fast_marching.h"
 #include "core/mesh/mesh_report.h"
@@ -30,30 +31,13 @@ struct TableRow {
   double samples;
   double neighbors;
 };
-// Table 1 of the paper: settings for 0.9% mean / 3.2% worst relative error.
-constexpr TableRow kTable1[] = {{10'000, 1300, 22},  {20'000, 1500, 21},  {50'000, 2300, 18},
+// Table 1 of the paper: its settings (n_P, m_P) by face count.
+constexpr TableRow kTable1[] = {{10'000, 1300, 22},  {20'000, 1500, 21},   {50'000, 2300, 18},
                                 {100'000, 5000, 18}, {200'000, 10000, 18}, {300'000, 15000, 18}};
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
-
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0u); }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<std::uint32_t> parent_;
-};
 
 // Connected components of the mesh's faces, as a component id per vertex (isolated vertices
 // get their own id).
@@ -126,20 +110,20 @@ std::pair<std::uint32_t, std::uint32_t> default_graph_size(std::size_t faces) {
 
 GraphSizeForError graph_size_for_error(std::size_t faces, double target_mean_error) {
   if (!(target_mean_error > 0 && target_mean_error < 1)) {
-    throw InvalidInput(ErrorCode::BadTargetError, "target error must be a fraction in (0, 1), e.g. 0.005 "
-                                         "for 0.5%, not " + std::to_string(target_mean_error));
+    throw InvalidInput(ErrorCode::BadTargetError,
+                       "target error must be a fraction in (0, 1), e.g. 0.005 for 0.5%, not " +
+                           std::to_string(target_mean_error));
   }
-  // Fit of docs/accuracy.csv (bench/accuracy_plot.py).
-  constexpr double kMeanScale = 0.4169, kMeanExponent = 1.577;
-  constexpr double kP99Scale = 0.5693, kP99Exponent = 1.288;
-  constexpr std::uint32_t kMinNeighbors = 4, kMaxNeighbors = 64;
-  const double exact_m = std::pow(kMeanScale / target_mean_error, 1.0 / kMeanExponent);
+  using namespace tuning;
+  const double exact_m =
+      std::pow(kErrorFitMeanScale / target_mean_error, 1.0 / kErrorFitMeanExponent);
   GraphSizeForError size;
   size.num_samples = default_graph_size(faces).first;
   size.neighbors = static_cast<std::uint32_t>(
-      std::clamp(std::ceil(exact_m - 1e-9), double{kMinNeighbors}, double{kMaxNeighbors}));
-  size.predicted_mean = kMeanScale * std::pow(size.neighbors, -kMeanExponent);
-  size.predicted_p99 = kP99Scale * std::pow(size.neighbors, -kP99Exponent);
+      std::clamp(std::ceil(exact_m - kErrorFitRoundingSlack), double{kErrorFitMinNeighbors},
+                 double{kErrorFitMaxNeighbors}));
+  size.predicted_mean = kErrorFitMeanScale * std::pow(size.neighbors, -kErrorFitMeanExponent);
+  size.predicted_p99 = kErrorFitP99Scale * std::pow(size.neighbors, -kErrorFitP99Exponent);
   return size;
 }
 
@@ -195,9 +179,12 @@ ProximityGraphView ProximityGraph::view() const {
 
 namespace {
 
+// Morton codes interleave 21 bits per axis into 63 bits.
+constexpr std::uint64_t kMortonAxisMask = 0x1FFFFF;
+
 // Spreads the low 21 bits of x to every third bit (bit i to bit 3i).
 std::uint64_t spread_bits(std::uint64_t x) {
-  x &= 0x1FFFFF;
+  x &= kMortonAxisMask;
   x = (x | x << 32) & 0x1F00000000FFFFull;
   x = (x | x << 16) & 0x1F0000FF0000FFull;
   x = (x | x << 8) & 0x100F00F00F00F00Full;
@@ -218,7 +205,7 @@ std::vector<std::uint32_t> spatial_order(const TriangleMesh& mesh,
     hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
   }
   const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-  const double scale = extent > 0 ? 0x1FFFFF / extent : 0;
+  const double scale = extent > 0 ? kMortonAxisMask / extent : 0;
   auto cell = [&](double t, double t0) { return static_cast<std::uint64_t>((t - t0) * scale); };
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(sample_vertex.size());
   for (std::uint32_t i = 0; i < sample_vertex.size(); ++i) {
@@ -240,8 +227,8 @@ std::vector<std::uint32_t> spatial_order(const TriangleMesh& mesh,
 // vertices [0, eligible) may become samples (ProximityGraphOptions::candidate_vertices).
 std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
                                                   const IntrinsicGeometry& geometry,
-                                                  std::uint32_t count,
-                                                  std::uint32_t eligible, SamplingMethod method,
+                                                  std::uint32_t count, std::uint32_t eligible,
+                                                  SamplingMethod method,
                                                   const BuildProgress& progress) {
   const std::uint32_t nv = static_cast<std::uint32_t>(mesh.num_vertices());
   std::vector<double> field(nv, kInfinity);
@@ -293,7 +280,8 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
     for (std::uint32_t u : lowered) {
       if (field[u] > 0 && u < eligible) farthest.push({field[u], u});
     }
-    if (progress && (samples.size() % 64 == 0 || samples.size() == count)) {
+    if (progress &&
+        (samples.size() % tuning::kGraphProgressEvery == 0 || samples.size() == count)) {
       progress("sampling", static_cast<double>(samples.size()) / count);
     }
   }
@@ -301,10 +289,11 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
   if (eligible < nv) {
     for (std::uint32_t v = 0; v < nv; ++v) {
       if (!mesh.is_isolated_vertex(v) && !std::isfinite(field[v])) {
-        throw InvalidInput(ErrorCode::BadGraphSize, "vertex " + std::to_string(v) +
-                                               " is in a component with no candidate vertex "
-                                               "(ids below " + std::to_string(eligible) +
-                                               "): no sample can reach it");
+        throw InvalidInput(ErrorCode::BadGraphSize,
+                           "vertex " + std::to_string(v) +
+                               " is in a component with no candidate vertex "
+                               "(ids below " +
+                               std::to_string(eligible) + "): no sample can reach it");
       }
     }
   }
@@ -313,16 +302,11 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
 
 }  // namespace
 
-namespace {
-
-// pi rho^2 = m_st * area / n_P, with m_st = 2 m_P unless the options say otherwise.
-double link_radius_of(double area, std::uint32_t samples, std::uint32_t neighbors,
-                      const ProximityGraphOptions& options) {
-  const double link_samples = options.link_samples ? options.link_samples : 2.0 * neighbors;
-  return std::sqrt(link_samples * area / (std::numbers::pi * samples));
+double link_radius_for(double area, std::uint32_t num_samples, std::uint32_t neighbors,
+                       std::uint32_t link_samples) {
+  const double samples_per_disk = link_samples ? link_samples : 2.0 * neighbors;
+  return std::sqrt(samples_per_disk * area / (std::numbers::pi * num_samples));
 }
-
-}  // namespace
 
 GraphSize resolve_graph_size(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                              const ProximityGraphOptions& options) {
@@ -338,12 +322,11 @@ GraphSize resolve_graph_size(const TriangleMesh& mesh, const IntrinsicGeometry& 
   std::uint32_t num_samples = options.num_samples ? options.num_samples : default_samples;
   const std::uint32_t neighbors = options.neighbors ? options.neighbors : default_neighbors;
   if (options.num_samples > usable_vertices) {
-    throw InvalidInput(ErrorCode::TooManySamples, "asked for " + std::to_string(options.num_samples) +
-                                             " samples but the mesh has only " +
-                                             std::to_string(usable_vertices) +
-                                             (options.candidate_vertices > 0
-                                                  ? " candidate vertices in faces"
-                                                  : " vertices in faces"));
+    throw InvalidInput(ErrorCode::TooManySamples,
+                       "asked for " + std::to_string(options.num_samples) +
+                           " samples but the mesh has only " + std::to_string(usable_vertices) +
+                           (options.candidate_vertices > 0 ? " candidate vertices in faces"
+                                                           : " vertices in faces"));
   }
   num_samples = static_cast<std::uint32_t>(std::min<std::size_t>(num_samples, usable_vertices));
   if (neighbors == 0 || num_samples == 0) {
@@ -353,120 +336,160 @@ GraphSize resolve_graph_size(const TriangleMesh& mesh, const IntrinsicGeometry& 
   size.num_samples = num_samples;
   size.neighbors = neighbors;
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) size.area += geometry.face_area(f);
-  size.link_radius = link_radius_of(size.area, num_samples, neighbors, options);
+  size.link_radius = link_radius_for(size.area, num_samples, neighbors, options.link_samples);
   return size;
 }
 
-ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
-                                     const ProximityGraphOptions& options,
-                                     const BuildProgress& progress) {
-  const auto start = std::chrono::steady_clock::now();
-  const GraphSize size = resolve_graph_size(mesh, geometry, options);
-  const auto nv = static_cast<std::uint32_t>(mesh.num_vertices());
-  ProximityGraph graph;
-  graph.num_vertices = nv;
-  graph.neighbors = size.neighbors;
+namespace {
 
-  // The validation report gives both the quality that decides when fast marching cannot be
-  // trusted and the number of face components.
-  const MeshReport report = compute_mesh_report(mesh, geometry);
-  graph.stats.components = report.components;
-  SamplingMethod method = options.sampling;
-  if (method == SamplingMethod::Automatic) {
-    const double obtuse =
-        static_cast<double>(report.obtuse_faces) / static_cast<double>(report.faces);
-    method = report.lo_quality_mean < options.poor_quality_threshold ||
-                     obtuse > options.obtuse_fraction_threshold
-                 ? SamplingMethod::Exact
-                 : SamplingMethod::FastMarching;
-  }
-  graph.stats.sampling_used = method;
-  graph.sample_vertex =
-      farthest_point_samples(mesh, geometry, size.num_samples, size.eligible, method, progress);
-  graph.stats.sampling_seconds = seconds_since(start);
-  const auto solves_start = std::chrono::steady_clock::now();
+// ---------------------------------------------------------------------------------------------
+// The phases of build_proximity_graph, in order.
 
-  // Local exact solves (paper §2.2): from each sample until its m_P nearest samples are settled
-  // and the link radius is reached, so that the cover table lists, for every vertex, every
-  // sample within the link radius (what queries link a vertex to).
-  const auto n = static_cast<std::uint32_t>(graph.sample_vertex.size());
-  // For the samples sampling found (fewer than asked where vertices coincide).
-  graph.link_radius = link_radius_of(size.area, n, size.neighbors, options);
-  std::vector<SurfacePoint> targets(n);
-  for (std::uint32_t i = 0; i < n; ++i) targets[i] = SurfacePoint::vertex(graph.sample_vertex[i]);
-  const GeodesicTargets prepared_targets(geometry, targets);  // shared by the threads' solvers
-  std::vector<std::int32_t> sample_of_vertex(mesh.num_vertices(), -1);
-  for (std::uint32_t i = 0; i < n; ++i) {
-    sample_of_vertex[graph.sample_vertex[i]] = static_cast<std::int32_t>(i);
+// Automatic sampling: exact distances on meshes of poorly shaped triangles, where fast marching
+// cannot be trusted; the mesh report measures their quality.
+SamplingMethod choose_sampling(const MeshReport& report, SamplingMethod asked) {
+  if (asked != SamplingMethod::Automatic) return asked;
+  const double obtuse =
+      static_cast<double>(report.obtuse_faces) / static_cast<double>(report.faces);
+  return report.lo_quality_mean < tuning::kPoorMeshLoQuality ||
+                 obtuse > tuning::kPoorMeshObtuseFraction
+             ? SamplingMethod::Exact
+             : SamplingMethod::FastMarching;
+}
+
+// The samples as the local solves see them, shared read-only by the threads.
+struct SampleSet {
+  SampleSet(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+            const std::vector<std::uint32_t>& sample_vertex)
+      : vertex(sample_vertex),
+        points(as_points(sample_vertex)),
+        prepared(geometry, points),
+        sample_of_vertex(mesh.num_vertices(), -1) {
+    for (std::uint32_t i = 0; i < size(); ++i) {
+      sample_of_vertex[vertex[i]] = static_cast<std::int32_t>(i);
+    }
   }
-  std::vector<std::vector<LocalEdge>> edges_of(n);
-  // (vertex, exact distance), rounded up to float in the cover table.
-  std::vector<std::vector<std::pair<std::uint32_t, double>>> covers_of(n);
+  std::uint32_t size() const { return static_cast<std::uint32_t>(vertex.size()); }
+
+  const std::vector<std::uint32_t>& vertex;    ///< [sample] its vertex
+  std::vector<SurfacePoint> points;            ///< [sample] as a surface point
+  GeodesicTargets prepared;                    ///< the points, as solver targets
+  std::vector<std::int32_t> sample_of_vertex;  ///< [vertex] its sample, or -1
+
+ private:
+  static std::vector<SurfacePoint> as_points(const std::vector<std::uint32_t>& vertices) {
+    std::vector<SurfacePoint> points(vertices.size());
+    for (std::size_t i = 0; i < vertices.size(); ++i) points[i] = SurfacePoint::vertex(vertices[i]);
+    return points;
+  }
+};
+
+// What the local solve from one sample found: its edges (both directions of each) and the
+// exact distance to every vertex of its disk, rounded up to float later in the cover table.
+struct LocalSolveResult {
+  std::vector<LocalEdge> edges;
+  std::vector<std::pair<std::uint32_t, double>> covers;  // (vertex, distance)
+};
+
+// The edges i -> j and j -> i of a geodesic found from sample i, with their end directions.
+void add_edge_pair(const TriangleMesh& mesh, const SampleSet& samples, std::uint32_t i,
+                   std::uint32_t j, double distance, const GeodesicPath& path,
+                   std::vector<LocalEdge>& edges) {
+  edges.push_back(
+      {i, j, distance, to_graph_direction(mesh, samples.vertex[i], path.direction_at_source)});
+  edges.push_back(
+      {j, i, distance, to_graph_direction(mesh, samples.vertex[j], path.direction_at_target)});
+}
+
+// One thread's local solves (paper §2.2). A plain solve to the link radius finds the samples
+// within it from the vertices it reaches; only where fewer than m_P lie within it does a second
+// solve run to the m_P nearest (its targets prepared once: registering all n_P samples at every
+// solve would cost O(n_P^2)).
+class LocalSolver {
+ public:
+  LocalSolver(const TriangleMesh& mesh, const IntrinsicGeometry& geometry, const SampleSet& samples,
+              double link_radius, std::uint32_t neighbors)
+      : mesh_(mesh), samples_(samples), solver_(mesh, geometry) {
+    to_radius_.max_distance = link_radius;
+    to_neighbors_.stop_after_targets = std::min<std::size_t>(neighbors + 1, samples.size());
+    to_neighbors_.min_distance = link_radius;
+  }
+
+  void solve_from(std::uint32_t i, LocalSolveResult& result) {
+    const SurfacePoint& from = samples_.points[i];
+    solver_.solve(from, to_radius_);
+    found_.clear();
+    for (std::uint32_t v : solver_.touched_vertices()) {
+      const std::int32_t j = samples_.sample_of_vertex[v];
+      const double d = solver_.distance(v);  // finite only within the radius
+      if (j >= 0 && static_cast<std::uint32_t>(j) != i && d < kInfinity) {
+        found_.emplace_back(d, static_cast<std::uint32_t>(j));
+      }
+    }
+    if (found_.size() + 1 < to_neighbors_.stop_after_targets) {
+      // A sparse spot (or a small component): on to the m_P nearest samples.
+      const GeodesicSource source{from, 0.0};
+      solver_.solve(std::span<const GeodesicSource>(&source, 1), samples_.prepared, to_neighbors_);
+      found_.clear();
+      for (std::size_t k = 0; k < solver_.settled_targets().size(); ++k) {
+        const std::uint32_t j = solver_.settled_targets()[k];
+        if (j != i) found_.emplace_back(solver_.settled_target_distances()[k], j);
+      }
+    }
+    std::sort(found_.begin(), found_.end());
+    // Every sample found is an edge: the m_P nearest and every one within the link radius. The
+    // solve has reached them anyway, and longer, more numerous edges make graph paths
+    // straighter, so graph distances more accurate.
+    for (const auto& [d, j] : found_) {
+      add_edge_pair(mesh_, samples_, i, j, d, solver_.path_to(samples_.points[j]), result.edges);
+    }
+    for (std::uint32_t v : solver_.touched_vertices()) {
+      const double d = solver_.distance(v);
+      if (d < kInfinity) result.covers.push_back({v, d});
+    }
+  }
+
+ private:
+  const TriangleMesh& mesh_;
+  const SampleSet& samples_;
+  ExactGeodesicSolver solver_;
+  ExactGeodesicOptions to_radius_;
+  ExactGeodesicOptions to_neighbors_;
+  std::vector<std::pair<double, std::uint32_t>> found_;  // (distance, sample)
+};
+
+// Local exact solves from every sample until its m_P nearest samples are settled and the link
+// radius is reached, so that the cover table lists, for every vertex, every sample within the
+// link radius (what queries link a vertex to). Result i is sample i's, whatever the thread.
+std::vector<LocalSolveResult> solve_locally(const TriangleMesh& mesh,
+                                            const IntrinsicGeometry& geometry,
+                                            const SampleSet& samples, double link_radius,
+                                            std::uint32_t neighbors, int threads,
+                                            const BuildProgress& progress) {
+  const std::uint32_t n = samples.size();
+  std::vector<LocalSolveResult> results(n);
+  const std::vector<std::uint32_t> solve_order = spatial_order(mesh, samples.vertex);
   std::size_t done = 0;
-  const std::vector<std::uint32_t> solve_order = spatial_order(mesh, graph.sample_vertex);
-  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   // No exception may leave an OpenMP region: the first one of any thread is rethrown once all
   // have stopped, and the others skip their remaining samples.
   std::exception_ptr failure;
   std::atomic<bool> failed = false;
 #pragma omp parallel num_threads(threads)
   {
-    ExactGeodesicSolver solver(mesh, geometry);
-    // A plain solve to the link radius finds the samples within it from the vertices it
-    // reaches; only where fewer than m_P lie within it does a second solve run to the m_P
-    // nearest (its targets prepared once: registering all n_P samples at every solve would
-    // cost O(n_P^2)).
-    ExactGeodesicOptions to_radius;
-    to_radius.max_distance = graph.link_radius;
-    ExactGeodesicOptions to_neighbors;
-    to_neighbors.stop_after_targets = std::min<std::size_t>(size.neighbors + 1, n);
-    to_neighbors.min_distance = graph.link_radius;
-    std::vector<std::pair<double, std::uint32_t>> found;  // (distance, sample)
+    LocalSolver solver(mesh, geometry, samples, link_radius, neighbors);
     // Each result goes to its sample's slot: the order changes nothing but the time (the graph
     // file is the same byte for byte).
-#pragma omp for schedule(dynamic, 16)
+#pragma omp for schedule(dynamic, tuning::kLocalSolveChunk)
     for (std::uint32_t rank = 0; rank < n; ++rank) {
       if (failed.load(std::memory_order_relaxed)) continue;
       try {
         const std::uint32_t i = solve_order[rank];
-        const GeodesicSource source{targets[i], 0.0};
-        solver.solve(targets[i], to_radius);
-        found.clear();
-        for (std::uint32_t v : solver.touched_vertices()) {
-          const std::int32_t j = sample_of_vertex[v];
-          const double d = solver.distance(v);  // finite only within the radius
-          if (j >= 0 && static_cast<std::uint32_t>(j) != i && d < kInfinity) {
-            found.emplace_back(d, static_cast<std::uint32_t>(j));
-          }
-        }
-        if (found.size() + 1 < to_neighbors.stop_after_targets) {
-          // A sparse spot (or a small component): on to the m_P nearest samples.
-          solver.solve(std::span<const GeodesicSource>(&source, 1), prepared_targets, to_neighbors);
-          found.clear();
-          for (std::size_t k = 0; k < solver.settled_targets().size(); ++k) {
-            const std::uint32_t j = solver.settled_targets()[k];
-            if (j != i) found.emplace_back(solver.settled_target_distances()[k], j);
-          }
-        }
-        std::sort(found.begin(), found.end());
-        // Every sample found is an edge: the m_P nearest and every one within the link radius.
-        // The solve has reached them anyway, and longer, more numerous edges make graph paths
-        // straighter (mean error on lucy.obj 1.15% -> 0.52%).
-        for (const auto& [d, j] : found) {
-          const GeodesicPath path = solver.path_to(targets[j]);
-          const std::uint32_t vi = graph.sample_vertex[i], vj = graph.sample_vertex[j];
-          edges_of[i].push_back({i, j, d, to_graph_direction(mesh, vi, path.direction_at_source)});
-          edges_of[i].push_back({j, i, d, to_graph_direction(mesh, vj, path.direction_at_target)});
-        }
-        for (std::uint32_t v : solver.touched_vertices()) {
-          const double d = solver.distance(v);
-          if (d < kInfinity) covers_of[i].push_back({v, d});
-        }
+        solver.solve_from(i, results[i]);
         if (progress) {
 #pragma omp critical(geoprox_graph_progress)
           {
             ++done;
-            if (done % 64 == 0 || done == n) {
+            if (done % tuning::kGraphProgressEvery == 0 || done == n) {
               progress("local solves", static_cast<double>(done) / n);
             }
           }
@@ -479,58 +502,70 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     }
   }
   if (failure) std::rethrow_exception(failure);
+  return results;
+}
 
-  // The graph must be connected within each mesh component (the paper's R >= 2r argument
-  // guarantees it for dense enough samples; thin parts can still split it). Join every stray
-  // piece to the nearest sample outside it, which is a genuine geodesic edge.
-  {
-    std::size_t component_count = 0;
-    const std::vector<std::uint32_t> component = vertex_components(mesh, component_count);
-    ExactGeodesicSolver solver(mesh, geometry);
-    while (true) {
-      UnionFind pieces(n);
-      for (std::uint32_t i = 0; i < n; ++i) {
-        for (const LocalEdge& e : edges_of[i]) pieces.unite(e.from, e.to);
-      }
-      // A sample is stray when its piece differs from that of its component's first sample.
-      std::vector<std::uint32_t> component_root(component_count, UINT32_MAX);
-      std::int32_t stray = -1;
-      for (std::uint32_t i = 0; i < n && stray < 0; ++i) {
-        std::uint32_t& root = component_root[component[graph.sample_vertex[i]]];
-        if (root == UINT32_MAX) root = pieces.find(i);
-        if (pieces.find(i) != root) stray = static_cast<std::int32_t>(i);
-      }
-      if (stray < 0) break;
-      const auto i = static_cast<std::uint32_t>(stray);
-      std::vector<SurfacePoint> others;
-      std::vector<std::uint32_t> other_index;
-      for (std::uint32_t j = 0; j < n; ++j) {
-        if (pieces.find(j) != pieces.find(i) &&
-            component[graph.sample_vertex[j]] == component[graph.sample_vertex[i]]) {
-          others.push_back(targets[j]);
-          other_index.push_back(j);
-        }
-      }
-      ExactGeodesicOptions nearest;
-      nearest.stop_after_targets = 1;
-      const GeodesicSource source{targets[i], 0.0};
-      solver.solve(std::span<const GeodesicSource>(&source, 1), others, nearest);
-      GEOPROX_ASSERT(!solver.settled_targets().empty(), "component has no reachable sample");
-      const std::uint32_t j = other_index[solver.settled_targets()[0]];
-      const GeodesicPath path = solver.path_to(targets[j]);
-      const double d = solver.settled_target_distances()[0];
-      edges_of[i].push_back(
-          {i, j, d, to_graph_direction(mesh, graph.sample_vertex[i], path.direction_at_source)});
-      edges_of[i].push_back(
-          {j, i, d, to_graph_direction(mesh, graph.sample_vertex[j], path.direction_at_target)});
-    }
+// The first sample, in sample order, whose piece of the graph differs from that of its mesh
+// component's first sample; -1 when each component's samples form one piece.
+std::int32_t first_stray_sample(const std::vector<LocalSolveResult>& results,
+                                const SampleSet& samples,
+                                const std::vector<std::uint32_t>& component,
+                                std::size_t component_count, UnionFind& pieces) {
+  for (const LocalSolveResult& result : results) {
+    for (const LocalEdge& e : result.edges) pieces.unite(e.from, e.to);
   }
+  std::vector<std::uint32_t> component_root(component_count, UINT32_MAX);
+  for (std::uint32_t i = 0; i < samples.size(); ++i) {
+    std::uint32_t& root = component_root[component[samples.vertex[i]]];
+    if (root == UINT32_MAX) root = pieces.find(i);
+    if (pieces.find(i) != root) return static_cast<std::int32_t>(i);
+  }
+  return -1;
+}
 
-  // Symmetric CSR: i ~ j if either listed the other; when both did, the solve of the smaller
-  // index wins so the result is independent of thread scheduling.
+// The graph must be connected within each mesh component (the paper's R >= 2r argument
+// guarantees it for dense enough samples; thin parts can still split it). Joins every stray
+// piece to the nearest sample outside it, which is a genuine geodesic edge.
+void connect_stray_pieces(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                          const SampleSet& samples, std::vector<LocalSolveResult>& results) {
+  std::size_t component_count = 0;
+  const std::vector<std::uint32_t> component = vertex_components(mesh, component_count);
+  ExactGeodesicSolver solver(mesh, geometry);
+  const std::uint32_t n = samples.size();
+  while (true) {
+    UnionFind pieces(n);
+    const std::int32_t stray =
+        first_stray_sample(results, samples, component, component_count, pieces);
+    if (stray < 0) break;
+    const auto i = static_cast<std::uint32_t>(stray);
+    std::vector<SurfacePoint> others;
+    std::vector<std::uint32_t> other_index;
+    for (std::uint32_t j = 0; j < n; ++j) {
+      if (pieces.find(j) != pieces.find(i) &&
+          component[samples.vertex[j]] == component[samples.vertex[i]]) {
+        others.push_back(samples.points[j]);
+        other_index.push_back(j);
+      }
+    }
+    ExactGeodesicOptions nearest;
+    nearest.stop_after_targets = 1;
+    const GeodesicSource source{samples.points[i], 0.0};
+    solver.solve(std::span<const GeodesicSource>(&source, 1), others, nearest);
+    GEOPROX_ASSERT(!solver.settled_targets().empty(), "component has no reachable sample");
+    const std::uint32_t j = other_index[solver.settled_targets()[0]];
+    const GeodesicPath path = solver.path_to(samples.points[j]);
+    const double d = solver.settled_target_distances()[0];
+    add_edge_pair(mesh, samples, i, j, d, path, results[i].edges);
+  }
+}
+
+// Symmetric CSR: i ~ j if either listed the other; when both did, the solve of the smaller
+// index wins so the result is independent of thread scheduling.
+void fill_edges(const std::vector<LocalSolveResult>& results, ProximityGraph& graph) {
+  const auto n = static_cast<std::uint32_t>(results.size());
   std::vector<LocalEdge> all;
-  for (std::uint32_t i = 0; i < n; ++i) {
-    for (const LocalEdge& e : edges_of[i]) all.push_back(e);
+  for (const LocalSolveResult& result : results) {
+    for (const LocalEdge& e : result.edges) all.push_back(e);
   }
   std::stable_sort(all.begin(), all.end(), [](const LocalEdge& a, const LocalEdge& b) {
     return a.from != b.from ? a.from < b.from : a.to < b.to;
@@ -553,44 +588,79 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
     graph.edge_direction.push_back(e.direction);
     graph.longest_edge = std::max(graph.longest_edge, e.distance);
   }
+}
 
-  // Per-vertex cover table, rows sorted by sample for determinism.
-  graph.cover_offsets.assign(mesh.num_vertices() + 1, 0);
-  for (std::uint32_t i = 0; i < n; ++i) {
-    for (const auto& [v, d] : covers_of[i]) ++graph.cover_offsets[v + 1];
+// Per-vertex cover table, rows sorted by sample for determinism.
+void fill_cover_table(const std::vector<LocalSolveResult>& results, std::size_t num_vertices,
+                      ProximityGraph& graph) {
+  graph.cover_offsets.assign(num_vertices + 1, 0);
+  for (const LocalSolveResult& result : results) {
+    for (const auto& [v, d] : result.covers) ++graph.cover_offsets[v + 1];
   }
-  for (std::size_t v = 0; v < mesh.num_vertices(); ++v) {
+  for (std::size_t v = 0; v < num_vertices; ++v) {
     graph.cover_offsets[v + 1] += graph.cover_offsets[v];
   }
   graph.cover_sample.resize(graph.cover_offsets.back());
   graph.cover_distance.resize(graph.cover_offsets.back());
-  {
-    std::vector<std::uint32_t> fill(graph.cover_offsets.begin(), graph.cover_offsets.end() - 1);
-    for (std::uint32_t i = 0; i < n; ++i) {  // increasing i: rows come out sorted by sample
-      for (const auto& [v, d] : covers_of[i]) {
-        graph.cover_sample[fill[v]] = i;
-        graph.cover_distance[fill[v]] = float_at_least(d);
-        ++fill[v];
-      }
+  std::vector<std::uint32_t> fill(graph.cover_offsets.begin(), graph.cover_offsets.end() - 1);
+  for (std::uint32_t i = 0; i < results.size(); ++i) {  // increasing i: rows sorted by sample
+    for (const auto& [v, d] : results[i].covers) {
+      graph.cover_sample[fill[v]] = i;
+      graph.cover_distance[fill[v]] = float_at_least(d);
+      ++fill[v];
     }
   }
+}
+
+// Theorem 4.2's r: the farthest any point of the surface is from every sample. Faces longer
+// than the samples' spacing hold points much farther out than any vertex.
+void measure_covering_radius(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                             const SampleSet& samples, double area, ProximityGraph& graph) {
+  ExactGeodesicSolver solver(mesh, geometry);
+  CoveringRadiusOptions covering;
+  covering.beyond = graph.link_radius;
+  const CoveringRadius r = covering_radius(solver, samples.points, covering);
+  graph.covering_radius = r.radius;
+  graph.stats.vertex_covering_radius = r.vertex_radius;
+  graph.stats.largest_empty_disk = r.farthest;
+  graph.stats.faces_beyond_link = r.faces_beyond;
+  graph.stats.area_fraction_beyond_link = area > 0 ? r.area_beyond / area : 0;
+}
+
+}  // namespace
+
+ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                                     const ProximityGraphOptions& options,
+                                     const BuildProgress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  const GraphSize size = resolve_graph_size(mesh, geometry, options);
+  ProximityGraph graph;
+  graph.num_vertices = static_cast<std::uint32_t>(mesh.num_vertices());
+  graph.neighbors = size.neighbors;
+
+  const MeshReport report = compute_mesh_report(mesh, geometry);
+  graph.stats.components = report.components;
+  graph.stats.sampling_used = choose_sampling(report, options.sampling);
+  graph.sample_vertex = farthest_point_samples(mesh, geometry, size.num_samples, size.eligible,
+                                               graph.stats.sampling_used, progress);
+  graph.stats.sampling_seconds = seconds_since(start);
+
+  const auto solves_start = std::chrono::steady_clock::now();
+  const SampleSet samples(mesh, geometry, graph.sample_vertex);
+  // For the samples sampling found (fewer than asked where vertices coincide).
+  graph.link_radius =
+      link_radius_for(size.area, samples.size(), size.neighbors, options.link_samples);
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  std::vector<LocalSolveResult> results =
+      solve_locally(mesh, geometry, samples, graph.link_radius, size.neighbors, threads, progress);
+  connect_stray_pieces(mesh, geometry, samples, results);
+  fill_edges(results, graph);
+  fill_cover_table(results, mesh.num_vertices(), graph);
   graph.stats.local_solve_seconds = seconds_since(solves_start);
 
-  // Theorem 4.2's r: the farthest any point of the surface is from every sample. Faces longer
-  // than the samples' spacing hold points much farther out than any vertex.
   const auto covering_start = std::chrono::steady_clock::now();
   if (progress) progress("covering radius", 0);
-  {
-    ExactGeodesicSolver solver(mesh, geometry);
-    CoveringRadiusOptions covering;
-    covering.beyond = graph.link_radius;
-    const CoveringRadius r = covering_radius(solver, targets, covering);
-    graph.covering_radius = r.radius;
-    graph.stats.vertex_covering_radius = r.vertex_radius;
-    graph.stats.largest_empty_disk = r.farthest;
-    graph.stats.faces_beyond_link = r.faces_beyond;
-    graph.stats.area_fraction_beyond_link = size.area > 0 ? r.area_beyond / size.area : 0;
-  }
+  measure_covering_radius(mesh, geometry, samples, size.area, graph);
   if (progress) progress("covering radius", 1);
   graph.stats.covering_seconds = seconds_since(covering_start);
   return graph;

@@ -28,34 +28,37 @@
 namespace geoprox {
 
 enum class SamplingMethod : std::uint8_t {
-  Automatic = 0,    ///< fast marching unless the mesh is poor (see poor_quality_threshold)
+  Automatic = 0,    ///< fast marching unless the mesh's triangles are poorly shaped
   FastMarching = 1, ///< farthest-point sampling on fast-marching distances
   Exact = 2,        ///< farthest-point sampling on exact distances (slower, for poor meshes)
 };
 
 struct ProximityGraphOptions {
-  /// n_P, number of samples; 0 picks the paper's Table 1 value for the face count.
+  /// n_P, number of samples; 0 (default) picks the paper's Table 1 value for the face count.
   std::uint32_t num_samples = 0;
-  /// m_P, nearest samples each sample is linked to; 0 picks the Table 1 value.
+  /// m_P, nearest samples each sample is linked to; 0 (default) picks the Table 1 value.
   std::uint32_t neighbors = 0;
-  /// m_st, samples a query point is linked to on average; 0 uses 2 * m_P (the paper's). It
-  /// sets the link radius (see ProximityGraphView::link_radius).
+  /// m_st, samples a query point is linked to on average; 0 (default) uses 2 * m_P (the
+  /// paper's). It sets the link radius (see link_radius_for).
   std::uint32_t link_samples = 0;
+  /// How samples are picked; Automatic (default) uses exact distances on meshes of poorly
+  /// shaped triangles (tuning::kPoorMeshLoQuality, kPoorMeshObtuseFraction), else fast marching.
   SamplingMethod sampling = SamplingMethod::Automatic;
-  /// Only vertices with an id below this may become samples; 0: every vertex. For a mesh
-  /// refined by subdivision that keeps its original vertices first (scripts/subdivide_mesh.py):
-  /// samples where the original mesh had vertices, and the accuracy study of samples inside
-  /// faces (docs/accuracy.md). Every component needs a candidate.
+  /// Only vertices with an id below this may become samples; 0 (default): every vertex. For a
+  /// mesh refined by subdivision that keeps its original vertices first
+  /// (scripts/subdivide_mesh.py): samples where the original mesh had vertices. Every
+  /// component needs a candidate.
   std::uint32_t candidate_vertices = 0;
-  /// Automatic sampling switches to exact distances when the mean Lo quality of the faces is
-  /// below this (an equilateral triangle has 0.1443; the paper's poor model has 0.065) or more
-  /// than `obtuse_fraction_threshold` of the faces are obtuse.
-  double poor_quality_threshold = 0.07;
-  double obtuse_fraction_threshold = 0.5;
-  /// OpenMP threads for the local solves; 0 uses OpenMP's default. The graph is identical for
-  /// every thread count.
+  /// OpenMP threads for the local solves; 0 (default) uses OpenMP's default. The graph is
+  /// identical for every thread count.
   int threads = 0;
 };
+
+/// rho, the link radius of n_P = `num_samples` samples over a surface of `area` (mesh units
+/// squared): the radius of a geodesic disk that holds m_st = `link_samples` samples on average,
+/// pi rho^2 = m_st * area / n_P. `link_samples` 0 uses 2 m_P (the paper's m_st).
+double link_radius_for(double area, std::uint32_t num_samples, std::uint32_t neighbors,
+                       std::uint32_t link_samples = 0);
 
 /// Table 1 of the paper, interpolated linearly in the face count between its rows and clamped
 /// at its ends: (n_P, m_P) for a mesh of `faces` faces.
@@ -77,10 +80,8 @@ GraphSize resolve_graph_size(const TriangleMesh& mesh, const IntrinsicGeometry& 
 
 /// Graph size for an accuracy instead of counts (the paper's §4.4 relationship, measured for
 /// this implementation: docs/accuracy.md). The mean relative error of graph distances depends on
-/// m_P (with m_st = 2 m_P) and hardly on n_P once n_P follows Table 1; over 45 runs on three
-/// meshes (9k-51k faces, n_P from 0.5x to 2x Table 1, m_P 6-24) a least-squares fit gives
-///   mean = 0.4169 * m_P^-1.577,   p99 = 0.5693 * m_P^-1.288,
-/// and the worst pair stayed within 12x the mean.
+/// m_P (with m_st = 2 m_P) and hardly on n_P once n_P follows Table 1; the prediction is a
+/// power law in m_P fitted to measured errors (tuning::kErrorFit*).
 struct GraphSizeForError {
   std::uint32_t num_samples = 0;  ///< n_P: Table 1 for the face count
   std::uint32_t neighbors = 0;    ///< m_P: smallest whose predicted mean error <= the target
@@ -88,7 +89,8 @@ struct GraphSizeForError {
   double predicted_p99 = 0;
 };
 /// Throws InvalidInput ("BadTargetError") unless 0 < target_mean_error < 1. m_P is clamped to
-/// [4, 64]; the prediction then says what that gives.
+/// [tuning::kErrorFitMinNeighbors, kErrorFitMaxNeighbors]; the prediction then says what that
+/// gives.
 GraphSizeForError graph_size_for_error(std::size_t faces, double target_mean_error);
 
 /// A direction stored by the graph: unit vector (x, y) in the frame of face `face`, a face of
@@ -106,13 +108,14 @@ struct ProximityGraphView {
   double longest_edge = 0;            ///< R: longest graph edge (mesh units)
   /// r: radius of the largest geodesic disk with no sample inside, over every point of the
   /// surface, faces' insides included (mesh units; an upper bound within 1e-3 of it, see
-  /// core/geodesic/covering_radius.h). Graph files written before 2026-11-28 hold the largest distance
-  /// from a vertex instead, which faces longer than the samples' spacing leave far below r.
+  /// core/geodesic/covering_radius.h). Older graph files hold the largest distance from a
+  /// vertex instead, which faces longer than the samples' spacing leave far below r.
   double covering_radius = 0;
   /// rho: queries link a point to every sample within this geodesic distance and answer exactly
   /// below it. Chosen so that a disk of radius rho holds m_st samples on average
   /// (pi rho^2 = m_st * area / n_P); every sample's local solve reaches at least rho, so the
-  /// cover row of a vertex lists every sample within rho of it. 0: unknown (imported graphs).
+  /// cover row of a vertex lists every sample within rho of it (see link_radius_for).
+  /// 0: unknown (imported graphs).
   double link_radius = 0;
 
   std::span<const std::uint32_t> sample_vertex;        ///< [num_samples] vertex of sample i

@@ -6,7 +6,6 @@
 
 #include "core/base/errors.h"
 #include "core/query/query_engine.h"
-#include <numbers>
 
 namespace geoprox::detail {
 
@@ -38,7 +37,7 @@ QueryEngine::QueryEngine(const TriangleMesh& mesh, const IntrinsicGeometry& geom
   if (!(link_radius_ > 0)) {  // an imported graph: the radius a build would have chosen
     double area = 0;
     for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) area += geometry.face_area(f);
-    link_radius_ = std::sqrt(2.0 * graph.neighbors * area / (std::numbers::pi * graph.num_samples));
+    link_radius_ = link_radius_for(area, graph.num_samples, graph.neighbors);
   }
   sample_of_vertex_.assign(mesh.num_vertices(), -1);
   sample_points_.reserve(graph.num_samples);

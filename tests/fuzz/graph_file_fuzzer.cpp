@@ -1,5 +1,5 @@
-// libFuzzer target: the graph-file opener (core/graph/graph_file.h) on hostile bundles, then what the
-// server does with a bundle that opened (rebuild its mesh and geometry, verify_mesh).
+// libFuzzer target: the graph-file opener (core/graph/graph_file.h) on hostile bundles, then what
+// the server does with a bundle that opened (rebuild its mesh and geometry, verify_mesh).
 //
 // Input: the file's bytes. The structure is opened without the checksum (a mutated file would
 // never get past the hash otherwise): what must hold then is that every id, offset and count
@@ -16,6 +16,7 @@
 
 #include "core/base/errors.h"
 #include "core/graph/graph_file.h"
+#include "core/graph/graph_file_format.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
 #include "tests/fuzz/fuzz_support.h"

@@ -1,5 +1,5 @@
-// Tests of core/graph/graph_file.h: the binary bundle (round trip, layout, every kind of damaged file,
-// atomic writes, moves), the paper's text format, and the open time of a ~100k-face bundle.
+// Tests of core/graph/graph_file.h: the binary bundle (round trip, layout, every kind of damaged
+// file, atomic writes, moves), the paper's text format, and the open time of a ~100k-face bundle.
 // Graphs are built by hand here (consistent CSR arrays, random but valid directions), so these
 // tests do not depend on the proximity-graph builder.
 #include "core/graph/graph_file.h"
@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "core/base/errors.h"
+#include "core/graph/graph_file_format.h"
 #include "tests/core/test_meshes.h"
 #include "tests/core/test_support.h"
 
@@ -249,6 +250,31 @@ TEST(GraphFile, BinaryRoundTripIsBitwise) {
   // Automatic records the method the builder used.
   write_graph_file(path, *fx.cube.mesh, *fx.cube.geometry, fx.graph);
   EXPECT_EQ(MappedGraphFile::open(path).params().sampling, SamplingMethod::FastMarching);
+}
+
+TEST(GraphFile, AFileNotOpenReportsZeros) {
+  Fixture fx;
+  TempDir dir;
+  write_graph_file(dir.file("g"), *fx.cube.mesh, *fx.cube.geometry, fx.graph,
+                   {.source_mesh = "cube.obj"});
+  MappedGraphFile opened = MappedGraphFile::open(dir.file("g"));
+  const MappedGraphFile moved = std::move(opened);
+  EXPECT_EQ(moved.source_mesh(), "cube.obj");
+  const MappedGraphFile fresh;
+  for (const MappedGraphFile* file : {&fresh, static_cast<const MappedGraphFile*>(&opened)}) {
+    const MappedGraphFile& f = *file;
+    EXPECT_FALSE(f.is_open());
+    EXPECT_EQ(f.format_version(), 0u);
+    EXPECT_EQ(f.params().num_samples, 0u);
+    EXPECT_EQ(f.counts().vertices, 0u);
+    EXPECT_EQ(f.longest_edge(), 0.0);
+    EXPECT_EQ(f.link_radius(), 0.0);
+    EXPECT_EQ(f.fingerprint(), 0u);
+    EXPECT_EQ(f.source_mesh(), "");
+    EXPECT_TRUE(f.sections().empty());
+    EXPECT_EQ(f.header().file_size, 0u);
+    EXPECT_EQ(f.view().num_samples, 0u);
+  }
 }
 
 TEST(GraphFile, WritingIsDeterministic) {

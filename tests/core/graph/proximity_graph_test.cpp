@@ -1,9 +1,9 @@
-// Tests of core/graph/proximity_graph.h: Table 1 defaults, farthest-point sampling (spread, covering
-// radius, farthest-point property), the graph (symmetry, sorted rows, degree, connectivity per
-// mesh component, R), every edge's distance and end directions against fresh exact solves, the
+// Tests of core/graph/proximity_graph.h: Table 1 defaults, farthest-point sampling (spread,
+// covering radius, farthest-point property), the graph (symmetry, sorted rows, degree, connectivity
+// per mesh component, R), every edge's distance and end directions against fresh exact solves, the
 // per-vertex cover table against fresh exact solves, thread-count determinism, two-component
-// meshes, the automatic choice of the sampling method, bad options, and one round trip through
-// the graph file (core/graph/graph_file.h has its own tests).
+// meshes, the automatic choice of the sampling method, bad options, and one round trip through the
+// graph file (core/graph/graph_file.h has its own tests).
 //
 // Meshes: spot.obj (5856 faces, shipped), blade.off (shipped, poor triangulation), and synthetic
 // ones from test_meshes.h (a jittered flat grid with a rectangular hole, a cube, a grid of caps).
@@ -12,8 +12,8 @@
 // Tolerances: graph distances are exact geodesic distances, compared to a fresh exact solve to
 // 1e-9 relative; directions are floats, compared with the fresh path's as angles around the
 // sample (intrinsic, 1e-5 rad); cover distances are floats (1e-6 relative); r at the vertices is
-// exact (1e-9), r over the faces an upper bound within 1e-3 (core/geodesic/covering_radius.h, tested
-// there).
+// exact (1e-9), r over the faces an upper bound within 1e-3 (core/geodesic/covering_radius.h,
+// tested there).
 #include "core/geodesic/geodesic_tracing.h"
 #include "core/graph/proximity_graph.h"
 
@@ -715,7 +715,8 @@ TEST(ProximityGraph, FastMarchingSamplingSpreadsEvenly) {
   EXPECT_NEAR(r_fmm / exact.stats.vertex_covering_radius, 1.0, 0.1);
   double shortest = kInfinity;
   for (double d : fmm.edge_distance) shortest = std::min(shortest, d);
-  EXPECT_GT(shortest, 0.8 * r_fmm) << "two samples at " << fmt(shortest) << " with r = " << fmt(r_fmm);
+  EXPECT_GT(shortest, 0.8 * r_fmm)
+      << "two samples at " << fmt(shortest) << " with r = " << fmt(r_fmm);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -826,7 +827,9 @@ void check_link_radius(const TestMesh& m, const ProximityGraph& g, const std::st
   EXPECT_NEAR(g.link_radius, expected, 1e-12 * expected);
   ExactGeodesicSolver solver(mesh, *m.geometry);
   std::vector<std::int32_t> sample_of(mesh.num_vertices(), -1);
-  for (std::uint32_t i = 0; i < n; ++i) sample_of[g.sample_vertex[i]] = static_cast<std::int32_t>(i);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    sample_of[g.sample_vertex[i]] = static_cast<std::int32_t>(i);
+  }
   int failures = 0;
   std::size_t within = 0;
   for (std::uint32_t i = 0; i < n; ++i) {
@@ -872,8 +875,31 @@ TEST(ProximityGraph, CoversAndEdgesReachTheLinkRadius) {
   options.link_samples = 30;
   const ProximityGraph g = build_proximity_graph(*spot().mesh, *spot().geometry, options);
   double area = 0;
-  for (std::uint32_t f = 0; f < spot().mesh->num_faces(); ++f) area += spot().geometry->face_area(f);
+  for (std::uint32_t f = 0; f < spot().mesh->num_faces(); ++f) {
+    area += spot().geometry->face_area(f);
+  }
   EXPECT_NEAR(g.link_radius, std::sqrt(30 * area / (std::numbers::pi * 120)), 1e-12);
+}
+
+TEST(ProximityGraph, LinkRadiusForIsTheRadiusBuildsAndQueriesUse) {
+  // pi rho^2 = m_st * area / n_P, with m_st = 2 m_P by default.
+  EXPECT_DOUBLE_EQ(link_radius_for(std::numbers::pi, 1, 1), std::sqrt(2.0));
+  EXPECT_DOUBLE_EQ(link_radius_for(std::numbers::pi, 1, 1, 8), std::sqrt(8.0));
+  EXPECT_EQ(link_radius_for(4.0, 3, 5), link_radius_for(4.0, 3, 7, 10));
+  double area = 0;
+  for (std::uint32_t f = 0; f < spot().mesh->num_faces(); ++f) {
+    area += spot().geometry->face_area(f);
+  }
+  const ProximityGraph& g = spot_fmm_graph();
+  EXPECT_EQ(g.link_radius, link_radius_for(area, 150, 10));
+  ProximityGraphOptions options;
+  options.num_samples = 150;
+  options.neighbors = 10;
+  EXPECT_EQ(resolve_graph_size(*spot().mesh, *spot().geometry, options).link_radius,
+            g.link_radius);
+  options.link_samples = 30;
+  EXPECT_EQ(resolve_graph_size(*spot().mesh, *spot().geometry, options).link_radius,
+            link_radius_for(area, 150, 10, 30));
 }
 
 TEST(ProximityGraph, IdenticalForOneAndTwoThreads) {
