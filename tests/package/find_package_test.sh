@@ -35,6 +35,19 @@ fi
 if find "$prefix/include" -path '*server*' | grep -q .; then
   fail "server headers were installed: $(find "$prefix/include" -path '*server*')"
 fi
+for private in window_propagation.h query_engine.h mesh_reader_support.h graph_file_format.h \
+               graph_file_internal.h tuning.h; do
+  if find "$prefix/include" -name "$private" | grep -q .; then
+    fail "a private header was installed: $(find "$prefix/include" -name "$private")"
+  fi
+done
+# Every installed header compiles on its own: no public header includes a private one.
+for h in $(cd "$prefix/include" && find geoprox/core -name '*.h'); do
+  echo "#include <$h>" > "$work/header_check.cpp"
+  c++ -std=c++20 -fsyntax-only -I"$prefix/include" -I"$prefix/include/geoprox" \
+      "$work/header_check.cpp" 2> "$work/header_check.log" ||
+    { cat "$work/header_check.log"; fail "installed header $h does not compile on its own"; }
+done
 echo "installed $(find "$prefix" -type f | wc -l) files into $prefix"
 
 cache() { sed -n "s/^$1:[A-Z]*=//p" "$build_dir/CMakeCache.txt"; }
