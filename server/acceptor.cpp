@@ -35,8 +35,12 @@ void Acceptor::listen(const std::string& host, std::uint16_t port) {
   if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
   if (ec) {
     std::string message = "cannot listen on " + what_;
-    message += " " + endpoint.address().to_string();
-    message += ":" + std::to_string(endpoint.port()) + ": " + ec.message();
+    message += ' ';
+    message += endpoint.address().to_string();
+    message += ':';
+    message += std::to_string(endpoint.port());
+    message += ": ";
+    message += ec.message();
     throw std::runtime_error(message);
   }
   port_ = acceptor_.local_endpoint().port();

@@ -54,7 +54,8 @@ Connection::Connection(const ConnectionEnv& env, tcp::socket socket)
     peer_ = "?";
   } else {
     peer_ = endpoint.address().to_string();
-    peer_ += ":" + std::to_string(endpoint.port());
+    peer_ += ':';
+    peer_ += std::to_string(endpoint.port());
   }
 }
 
