@@ -1,9 +1,8 @@
 // The daemon's life: geoproxd as a subprocess (command-line errors and exit codes, JSON request
-// log lines, SIGTERM drain, SIGHUP reload with a good and a corrupted graph, --check), background
-// builds (a mesh that fails does not take the others
-// down), admin methods (token, path confinement, register / rebuild / unregister / reload; a
-// mesh whose long faces leave gaps between its samples, served with a warning) and
-// the config file.
+// log lines, SIGTERM drain, SIGHUP reload with a good and a corrupted graph, --check),
+// background builds (a mesh that fails does not take the others down), admin methods (token,
+// path confinement, register / rebuild / unregister / reload; a mesh whose long faces leave gaps
+// between its samples, served with a warning) and the config file.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <signal.h>
