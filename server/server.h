@@ -7,7 +7,8 @@
 // Threads: `io_threads` threads run the io_context (accept, read, frame, decode, write, and the
 // cheap methods: mesh.list, mesh.info, server.*); `compute_threads` threads run every query,
 // batch and admin call; one builder thread (server/registry.h) loads and builds graphs. Each
-// connection's handlers run on its own strand. The methods below may be called from any thread.
+// connection's handlers run on its own strand. start() is called once; the other methods may
+// be called from any thread.
 #pragma once
 
 #include <cstdint>
