@@ -138,7 +138,8 @@ unsigned ComputePool::idle_threads() const {
 std::int64_t ComputePool::retry_after_ms() const {
   const double mean_ms = static_cast<double>(mean_task_us_.load(std::memory_order_relaxed)) / 1e3;
   const double backlog = static_cast<double>(waiting()) + 1;
-  const double ms = mean_ms * backlog / static_cast<double>(std::max<std::size_t>(1, threads_.size()));
+  const double threads = static_cast<double>(std::max<std::size_t>(1, threads_.size()));
+  const double ms = mean_ms * backlog / threads;
   return std::clamp<std::int64_t>(static_cast<std::int64_t>(ms + 0.5), 10, 2000);
 }
 

@@ -123,6 +123,82 @@ unsigned Config::effective_compute_threads() const {
   return hw == 0 ? 1 : hw;
 }
 
+namespace {
+
+/// The "limits" object: protocol limits and the server's own.
+void read_limits(const json& limits, const std::string& where, Config& config) {
+  if (!limits.is_object()) throw ConfigError(where + ": expected an object");
+  const Reader l(limits, where);
+  l.only({"max_line_bytes", "max_nesting_depth", "max_points_per_request", "max_matrix_pairs",
+          "max_field_sources", "max_batch_requests", "max_output_bytes", "default_timeout_ms",
+          "max_timeout_ms", "max_connections", "max_inflight_per_connection", "max_queue",
+          "read_timeout_ms", "max_write_buffer_bytes"});
+  protocol::Limits& p = config.limits;
+  ServerLimits& s = config.server_limits;
+  l.integer("max_line_bytes", p.max_line_bytes, 64, std::int64_t{1} << 32);
+  l.integer("max_nesting_depth", p.max_nesting_depth, 8, 10'000);
+  l.integer("max_points_per_request", p.max_points_per_request, 2, 100'000'000);
+  l.integer("max_matrix_pairs", p.max_matrix_pairs, 1, std::int64_t{1} << 40);
+  l.integer("max_field_sources", p.max_field_sources, 1, 100'000'000);
+  l.integer("max_batch_requests", p.max_batch_requests, 1, 100'000'000);
+  l.integer("max_output_bytes", p.max_output_bytes, 1024, std::int64_t{1} << 40);
+  l.integer("default_timeout_ms", p.default_timeout_ms, 1, 86'400'000);
+  l.integer("max_timeout_ms", p.max_timeout_ms, 1, 86'400'000);
+  l.integer("max_connections", s.max_connections, 1, 1'000'000);
+  l.integer("max_inflight_per_connection", s.max_inflight_per_connection, 1, 1'000'000);
+  l.integer("max_queue", s.max_queue, 0, 100'000'000);
+  l.integer("read_timeout_ms", s.read_timeout_ms, 1, 86'400'000);
+  l.integer("max_write_buffer_bytes", s.max_write_buffer_bytes, 1024, std::int64_t{1} << 40);
+}
+
+/// One entry of "meshes"; `ids` and `graphs` are those of the entries before it (no id or
+/// graph file twice).
+MeshConfig read_mesh(const json& m, const std::string& where, const Config& config,
+                     std::set<std::string>& ids, std::set<fs::path>& graphs) {
+  if (!m.is_object()) throw ConfigError(where + ": expected an object");
+  const Reader r(m, where);
+  r.only({"id", "mesh", "graph", "metric", "samples", "neighbors", "link_samples",
+          "sampling"});
+  MeshConfig mesh;
+  r.string("id", mesh.id);
+  if (mesh.id.empty()) throw ConfigError(where + ".id: required");
+  if (!protocol::is_valid_mesh_id(mesh.id)) {
+    throw ConfigError(where + ".id: \"" + mesh.id +
+                      "\" is not a valid mesh id (1 to 128 of A-Z a-z 0-9 . _ -, starting "
+                      "with a letter or digit)");
+  }
+  if (!ids.insert(mesh.id).second) {
+    throw ConfigError(where + ".id: \"" + mesh.id + "\" is used twice");
+  }
+  std::string mesh_file, graph_file = mesh.id + ".geoprox";
+  r.string("mesh", mesh_file);
+  if (mesh_file.empty()) throw ConfigError(where + ".mesh: required");
+  r.string("graph", graph_file);
+  if (graph_file.empty()) throw ConfigError(where + ".graph: must not be empty");
+  mesh.mesh_path = resolve(config.data_dir, mesh_file);
+  mesh.graph_path = resolve(config.graph_dir, graph_file);
+  if (!graphs.insert(mesh.graph_path).second) {
+    throw ConfigError(where + ".graph: " + mesh.graph_path.string() +
+                      " is the graph file of another mesh");
+  }
+  std::string metric_file;
+  r.string("metric", metric_file);
+  if (r.find("metric") != nullptr && metric_file.empty()) {
+    throw ConfigError(where + ".metric: must not be empty (leave it out for no metric)");
+  }
+  if (!metric_file.empty()) mesh.build.metric_path = resolve(config.data_dir, metric_file);
+  r.integer("samples", mesh.build.samples, 0, std::numeric_limits<std::uint32_t>::max());
+  r.integer("neighbors", mesh.build.neighbors, 0, std::numeric_limits<std::uint32_t>::max());
+  r.integer("link_samples", mesh.build.link_samples, 0,
+            std::numeric_limits<std::uint32_t>::max());
+  std::string sampling = "auto";
+  r.string("sampling", sampling);
+  mesh.build.sampling = parse_sampling(sampling, where + ".sampling");
+  return mesh;
+}
+
+}  // namespace
+
 Config parse_config(const json& document, const fs::path& base_dir, const std::string& origin) {
   if (!document.is_object()) throw ConfigError(origin + ": the top level must be an object");
   Config config;
@@ -156,30 +232,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   top.integer("shutdown_timeout_ms", config.shutdown_timeout_ms, 0, 3'600'000);
   top.integer("not_ready_retry_after_ms", config.not_ready_retry_after_ms, 1, 3'600'000);
 
-  if (const json* limits = top.find("limits")) {
-    if (!limits->is_object()) throw ConfigError(top.name("limits") + ": expected an object");
-    const Reader l(*limits, top.name("limits"));
-    l.only({"max_line_bytes", "max_nesting_depth", "max_points_per_request", "max_matrix_pairs",
-            "max_field_sources", "max_batch_requests", "max_output_bytes", "default_timeout_ms",
-            "max_timeout_ms", "max_connections", "max_inflight_per_connection", "max_queue",
-            "read_timeout_ms", "max_write_buffer_bytes"});
-    protocol::Limits& p = config.limits;
-    ServerLimits& s = config.server_limits;
-    l.integer("max_line_bytes", p.max_line_bytes, 64, std::int64_t{1} << 32);
-    l.integer("max_nesting_depth", p.max_nesting_depth, 8, 10'000);
-    l.integer("max_points_per_request", p.max_points_per_request, 2, 100'000'000);
-    l.integer("max_matrix_pairs", p.max_matrix_pairs, 1, std::int64_t{1} << 40);
-    l.integer("max_field_sources", p.max_field_sources, 1, 100'000'000);
-    l.integer("max_batch_requests", p.max_batch_requests, 1, 100'000'000);
-    l.integer("max_output_bytes", p.max_output_bytes, 1024, std::int64_t{1} << 40);
-    l.integer("default_timeout_ms", p.default_timeout_ms, 1, 86'400'000);
-    l.integer("max_timeout_ms", p.max_timeout_ms, 1, 86'400'000);
-    l.integer("max_connections", s.max_connections, 1, 1'000'000);
-    l.integer("max_inflight_per_connection", s.max_inflight_per_connection, 1, 1'000'000);
-    l.integer("max_queue", s.max_queue, 0, 100'000'000);
-    l.integer("read_timeout_ms", s.read_timeout_ms, 1, 86'400'000);
-    l.integer("max_write_buffer_bytes", s.max_write_buffer_bytes, 1024, std::int64_t{1} << 40);
-  }
+  if (const json* limits = top.find("limits")) read_limits(*limits, top.name("limits"), config);
 
   if (const json* meshes = top.find("meshes")) {
     if (!meshes->is_array()) throw ConfigError(top.name("meshes") + ": expected an array");
@@ -187,47 +240,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
     std::set<fs::path> graphs;
     for (std::size_t i = 0; i < meshes->size(); ++i) {
       const std::string where = top.name("meshes") + "[" + std::to_string(i) + "]";
-      const json& m = (*meshes)[i];
-      if (!m.is_object()) throw ConfigError(where + ": expected an object");
-      const Reader r(m, where);
-      r.only({"id", "mesh", "graph", "metric", "samples", "neighbors", "link_samples",
-              "sampling"});
-      MeshConfig mesh;
-      r.string("id", mesh.id);
-      if (mesh.id.empty()) throw ConfigError(where + ".id: required");
-      if (!protocol::is_valid_mesh_id(mesh.id)) {
-        throw ConfigError(where + ".id: \"" + mesh.id +
-                          "\" is not a valid mesh id (1 to 128 of A-Z a-z 0-9 . _ -, starting "
-                          "with a letter or digit)");
-      }
-      if (!ids.insert(mesh.id).second) {
-        throw ConfigError(where + ".id: \"" + mesh.id + "\" is used twice");
-      }
-      std::string mesh_file, graph_file = mesh.id + ".geoprox";
-      r.string("mesh", mesh_file);
-      if (mesh_file.empty()) throw ConfigError(where + ".mesh: required");
-      r.string("graph", graph_file);
-      if (graph_file.empty()) throw ConfigError(where + ".graph: must not be empty");
-      mesh.mesh_path = resolve(config.data_dir, mesh_file);
-      mesh.graph_path = resolve(config.graph_dir, graph_file);
-      if (!graphs.insert(mesh.graph_path).second) {
-        throw ConfigError(where + ".graph: " + mesh.graph_path.string() +
-                          " is the graph file of another mesh");
-      }
-      std::string metric_file;
-      r.string("metric", metric_file);
-      if (r.find("metric") != nullptr && metric_file.empty()) {
-        throw ConfigError(where + ".metric: must not be empty (leave it out for no metric)");
-      }
-      if (!metric_file.empty()) mesh.build.metric_path = resolve(config.data_dir, metric_file);
-      r.integer("samples", mesh.build.samples, 0, std::numeric_limits<std::uint32_t>::max());
-      r.integer("neighbors", mesh.build.neighbors, 0, std::numeric_limits<std::uint32_t>::max());
-      r.integer("link_samples", mesh.build.link_samples, 0,
-                std::numeric_limits<std::uint32_t>::max());
-      std::string sampling = "auto";
-      r.string("sampling", sampling);
-      mesh.build.sampling = parse_sampling(sampling, where + ".sampling");
-      config.meshes.push_back(std::move(mesh));
+      config.meshes.push_back(read_mesh((*meshes)[i], where, config, ids, graphs));
     }
   }
   validate_config(config);

@@ -1,5 +1,6 @@
 #include "server/logging.h"
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/pattern_formatter.h>
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
@@ -10,74 +11,77 @@
 
 namespace geoprox::server {
 
-std::string json_escape(std::string_view text) {
-  std::string out;
-  out.reserve(text.size() + 8);
-  std::size_t i = 0;
-  while (i < text.size()) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-      ++i;
-    } else if (c < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-      ++i;
-    } else if (c < 0x80) {
-      out += static_cast<char>(c);
-      ++i;
-    } else {
-      // Copy a valid UTF-8 sequence, replace anything else by U+FFFD.
-      std::size_t len = c >= 0xF0 && c <= 0xF4 ? 4 : c >= 0xE0 ? 3 : c >= 0xC2 && c < 0xE0 ? 2 : 0;
-      bool ok = len != 0 && i + len <= text.size();
-      for (std::size_t k = 1; ok && k < len; ++k) {
-        ok = (static_cast<unsigned char>(text[i + k]) & 0xC0) == 0x80;
-      }
-      if (ok) {
-        out.append(text.substr(i, len));
-        i += len;
-      } else {
-        out += "\xEF\xBF\xBD";
-        ++i;
-      }
-    }
-  }
-  return out;
-}
-
 namespace {
+
+using nlohmann::ordered_json;
+
+/// Set by configure_logging, before other threads log.
+bool json_lines = false;
+/// The fields of the event being logged on this thread. The logger is synchronous: its
+/// formatter runs on the logging thread, inside the spdlog::log call of log_fields.
+thread_local const ordered_json* current_fields = nullptr;
+
+std::string utc_timestamp(spdlog::log_clock::time_point time) {
+  const auto seconds = std::chrono::system_clock::to_time_t(time);
+  const auto micros =
+      std::chrono::duration_cast<std::chrono::microseconds>(time.time_since_epoch()).count() %
+      1000000;
+  std::tm tm{};
+  gmtime_r(&seconds, &tm);
+  char stamp[64];
+  std::snprintf(stamp, sizeof stamp, "%04d-%02d-%02dT%02d:%02d:%02d.%06lldZ", tm.tm_year + 1900,
+                tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec,
+                static_cast<long long>(micros));
+  return stamp;
+}
 
 class JsonFormatter final : public spdlog::formatter {
  public:
   void format(const spdlog::details::log_msg& msg, spdlog::memory_buf_t& dest) override {
-    const auto time = std::chrono::system_clock::to_time_t(msg.time);
-    const auto micros = std::chrono::duration_cast<std::chrono::microseconds>(
-                            msg.time.time_since_epoch())
-                            .count() %
-                        1000000;
-    std::tm tm{};
-    gmtime_r(&time, &tm);
-    char stamp[64];
-    std::snprintf(stamp, sizeof stamp, "%04d-%02d-%02dT%02d:%02d:%02d.%06lldZ", tm.tm_year + 1900,
-                  tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec,
-                  static_cast<long long>(micros));
-    const auto level = spdlog::level::to_string_view(msg.level);
-    std::string line = "{\"time\":\"";
-    line += stamp;
-    line += "\",\"level\":\"";
-    line.append(level.data(), level.size());
-    line += "\",\"thread\":";
-    line += std::to_string(msg.thread_id);
-    line += ",\"msg\":\"";
-    line += json_escape(std::string_view(msg.payload.data(), msg.payload.size()));
-    line += "\"}\n";
-    dest.append(line.data(), line.data() + line.size());
+    ordered_json line;
+    line["time"] = utc_timestamp(msg.time);
+    line["level"] = std::string(spdlog::level::to_string_view(msg.level).data(),
+                                spdlog::level::to_string_view(msg.level).size());
+    line["thread"] = msg.thread_id;
+    line["msg"] = std::string(msg.payload.data(), msg.payload.size());
+    if (current_fields != nullptr) {
+      for (const auto& [key, value] : current_fields->items()) line[key] = value;
+    }
+    // Invalid UTF-8 becomes U+FFFD: every line stays valid JSON.
+    std::string text = line.dump(-1, ' ', false, ordered_json::error_handler_t::replace);
+    text += '\n';
+    dest.append(text.data(), text.data() + text.size());
   }
   std::unique_ptr<spdlog::formatter> clone() const override {
     return std::make_unique<JsonFormatter>();
   }
+};
+
+bool needs_quotes(const std::string& text) {
+  for (const char c : text) {
+    if (c == ' ' || c == '"' || c == '=' || static_cast<unsigned char>(c) < 0x20) return true;
+  }
+  return false;
+}
+
+std::string text_value(const ordered_json& value) {
+  if (value.is_null()) return "-";
+  if (value.is_string()) {
+    const auto& text = value.get_ref<const std::string&>();
+    if (text.empty()) return "-";
+    return needs_quotes(text) ? value.dump(-1, ' ', false, ordered_json::error_handler_t::replace)
+                              : text;
+  }
+  if (value.is_number_float()) return fmt::format("{:.3f}", value.get<double>());
+  return value.dump(-1, ' ', false, ordered_json::error_handler_t::replace);
+}
+
+/// Resets the thread's fields even if logging throws.
+struct FieldsScope {
+  explicit FieldsScope(const ordered_json& fields) { current_fields = &fields; }
+  ~FieldsScope() { current_fields = nullptr; }
+  FieldsScope(const FieldsScope&) = delete;
+  FieldsScope& operator=(const FieldsScope&) = delete;
 };
 
 }  // namespace
@@ -85,6 +89,7 @@ class JsonFormatter final : public spdlog::formatter {
 void configure_logging(const std::string& level, bool json) {
   spdlog::drop("geoproxd");
   auto logger = spdlog::stderr_logger_mt("geoproxd");
+  json_lines = json;
   if (json) {
     logger->set_formatter(std::make_unique<JsonFormatter>());
   } else {
@@ -93,6 +98,24 @@ void configure_logging(const std::string& level, bool json) {
   logger->set_level(spdlog::level::from_str(level));
   logger->flush_on(spdlog::level::warn);
   spdlog::set_default_logger(logger);
+}
+
+void log_fields(spdlog::level::level_enum level, std::string_view message,
+                const ordered_json& fields) {
+  if (!spdlog::should_log(level)) return;
+  if (json_lines) {
+    const FieldsScope scope(fields);
+    spdlog::log(level, "{}", message);
+    return;
+  }
+  std::string text(message);
+  for (const auto& [key, value] : fields.items()) {
+    text += ' ';
+    text += key;
+    text += '=';
+    text += text_value(value);
+  }
+  spdlog::log(level, "{}", text);
 }
 
 }  // namespace geoprox::server

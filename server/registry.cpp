@@ -25,6 +25,13 @@ std::string describe_exception(const std::exception& e) {
   return e.what();
 }
 
+std::string quote(std::string_view text) {
+  std::string out = "\"";
+  out += text;
+  out += '"';
+  return out;
+}
+
 std::string mesh_version_of(const MappedGraphFile& file) {
   char buf[24];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(file.checksum()));
@@ -35,13 +42,10 @@ std::string mesh_version_of(const MappedGraphFile& file) {
 
 LoadedMesh::LoadedMesh(std::shared_ptr<const MeshData> data, MappedGraphFile file,
                        std::size_t max_scratch, QueryScratch::RunBoth run_both)
-    : data_(std::move(data)),
-      file_(std::move(file)),
-      version_(mesh_version_of(file_)),
+    : graph_(std::move(data), std::move(file)),
+      version_(mesh_version_of(graph_.file)),
       max_scratch_(max_scratch == 0 ? 1 : max_scratch),
-      run_both_(std::move(run_both)) {
-  query_ = std::make_unique<GeodesicQuery>(data_->mesh, data_->geometry, file_.view());
-}
+      run_both_(std::move(run_both)) {}
 
 LoadedMesh::~LoadedMesh() = default;
 
@@ -85,7 +89,7 @@ LoadedMesh::Lease LoadedMesh::lease() const {
       lock.unlock();
       try {
         auto slot = std::make_unique<ScratchSlot>(ScratchSlot{
-            query_->make_scratch(), nullptr, nullptr, std::this_thread::get_id()});
+            graph_.query->make_scratch(), nullptr, nullptr, std::this_thread::get_id()});
         slot->scratch.set_run_both(run_both_);
         return Lease(this, std::move(slot));
       } catch (...) {
@@ -309,12 +313,10 @@ void Registry::run_job(const Job& job) {
   try {
     set_phase(entry->mutex_, entry->phase_, entry->progress_, "loading", 0);
     spdlog::info("mesh {}: loading {}", entry->id(), entry->mesh_path().string());
-    auto loaded = std::make_shared<MeshData>(load_mesh(entry->mesh_path().string()));
     if (!job.build.metric_path.empty()) {
       spdlog::info("mesh {}: metric {}", entry->id(), job.build.metric_path.string());
-      loaded->geometry = load_geometry(loaded->mesh, job.build.metric_path.string());
     }
-    data = std::move(loaded);
+    data = MeshData::load(entry->mesh_path().string(), job.build.metric_path.string());
     {
       std::lock_guard lock(entry->mutex_);
       entry->vertices_ = data->mesh.num_vertices();
@@ -451,7 +453,6 @@ bool is_within(const fs::path& path, const fs::path& base) {
   return true;
 }
 
-std::string quoted(const std::string& s) { return "\"" + s + "\""; }
 
 }  // namespace
 
@@ -467,15 +468,16 @@ fs::path Registry::confine(const std::string& text, const std::string& field) co
   for (const auto& part : given) {
     if (part == "..") {
       throw ProtocolError(ErrorReason::PathNotAllowed,
-                          field + " " + quoted(text) +
+                          field + " " + quote(text) +
                               " contains a '..' component (paths stay inside the data directory)");
     }
   }
   const fs::path base = options_.data_dir.lexically_normal();
-  const fs::path full = given.is_absolute() ? given.lexically_normal() : (base / given).lexically_normal();
+  const fs::path full =
+      given.is_absolute() ? given.lexically_normal() : (base / given).lexically_normal();
   if (!is_within(full, base)) {
     throw ProtocolError(ErrorReason::PathNotAllowed,
-                        field + " " + quoted(text) + " is outside the data directory");
+                        field + " " + quote(text) + " is outside the data directory");
   }
   std::error_code ec;
   const fs::path real_base = fs::weakly_canonical(base, ec);
@@ -486,7 +488,7 @@ fs::path Registry::confine(const std::string& text, const std::string& field) co
   const fs::path real = fs::weakly_canonical(full, ec);
   if (ec || !is_within(real, real_base)) {
     throw ProtocolError(ErrorReason::PathNotAllowed,
-                        field + " " + quoted(text) +
+                        field + " " + quote(text) +
                             " resolves (through a symbolic link) outside the data directory");
   }
   return full;
@@ -518,33 +520,33 @@ BuildParams apply_overrides(BuildParams build, const protocol::BuildOptions& opt
 MeshStatus Registry::register_mesh(const protocol::AdminRegisterParams& params) {
   if (!protocol::is_valid_mesh_id(params.mesh)) {
     throw ProtocolError(ErrorReason::InvalidParams,
-                        "params.mesh: " + quoted(params.mesh) + " is not a valid mesh id");
+                        "params.mesh: " + quote(params.mesh) + " is not a valid mesh id");
   }
   if (find(params.mesh)) {
     throw ProtocolError(ErrorReason::MeshExists,
-                        "params.mesh: a mesh " + quoted(params.mesh) + " is already registered");
+                        "params.mesh: a mesh " + quote(params.mesh) + " is already registered");
   }
   const fs::path mesh_path = confine(params.mesh_file, "params.mesh_file");
   std::error_code ec;
   const auto status = fs::status(mesh_path, ec);
   if (ec || !fs::exists(status)) {
     throw ProtocolError(ErrorReason::NotFound,
-                        "params.mesh_file " + quoted(params.mesh_file) + " does not exist");
+                        "params.mesh_file " + quote(params.mesh_file) + " does not exist");
   }
   if (!fs::is_regular_file(status)) {
     throw ProtocolError(ErrorReason::BadMeshFile,
-                        "params.mesh_file " + quoted(params.mesh_file) + " is not a regular file");
+                        "params.mesh_file " + quote(params.mesh_file) + " is not a regular file");
   }
   if (!std::ifstream(mesh_path, std::ios::binary)) {
     throw ProtocolError(ErrorReason::BadMeshFile,
-                        "params.mesh_file " + quoted(params.mesh_file) + " cannot be read");
+                        "params.mesh_file " + quote(params.mesh_file) + " cannot be read");
   }
   const fs::path graph_path =
       params.graph_file ? confine(*params.graph_file, "params.graph_file")
                         : (options_.graph_dir / (params.mesh + ".geoprox")).lexically_normal();
   if (params.graph_file && fs::is_directory(graph_path, ec)) {
     throw ProtocolError(ErrorReason::BadMeshFile,
-                        "params.graph_file " + quoted(*params.graph_file) + " is a directory");
+                        "params.graph_file " + quote(*params.graph_file) + " is a directory");
   }
   const BuildParams build = apply_overrides(BuildParams{}, params.build);
   std::shared_ptr<MeshEntry> entry;
@@ -552,13 +554,13 @@ MeshStatus Registry::register_mesh(const protocol::AdminRegisterParams& params) 
     std::lock_guard lock(mutex_);
     if (by_id_.count(params.mesh)) {
       throw ProtocolError(ErrorReason::MeshExists,
-                          "params.mesh: a mesh " + quoted(params.mesh) + " is already registered");
+                          "params.mesh: a mesh " + quote(params.mesh) + " is already registered");
     }
     for (const auto& other : order_) {
       if (other->graph_path() == graph_path) {
         throw ProtocolError(ErrorReason::InvalidParams,
                             "params.graph_file: " + graph_path.filename().string() +
-                                " is the graph file of mesh " + quoted(other->id()));
+                                " is the graph file of mesh " + quote(other->id()));
       }
     }
     entry = add_entry(std::make_shared<MeshEntry>(params.mesh, mesh_path, graph_path, build));
@@ -573,7 +575,7 @@ MeshStatus Registry::rebuild(const std::string& id, const protocol::BuildOptions
   auto entry = find(id);
   if (!entry) {
     throw ProtocolError(ErrorReason::UnknownMesh,
-                        "params.mesh: no mesh " + quoted(id) + " (mesh.list lists them)");
+                        "params.mesh: no mesh " + quote(id) + " (mesh.list lists them)");
   }
   BuildParams build;
   bool start = false;
@@ -602,7 +604,7 @@ void Registry::unregister(const std::string& id) {
     auto it = by_id_.find(id);
     if (it == by_id_.end()) {
       throw ProtocolError(ErrorReason::UnknownMesh,
-                          "params.mesh: no mesh " + quoted(id) + " (mesh.list lists them)");
+                          "params.mesh: no mesh " + quote(id) + " (mesh.list lists them)");
     }
     entry = it->second;
     by_id_.erase(it);
@@ -623,7 +625,7 @@ std::vector<protocol::ReloadOutcome> Registry::reload(const std::optional<std::s
     auto entry = find(*id);
     if (!entry) {
       throw ProtocolError(ErrorReason::UnknownMesh,
-                          "params.mesh: no mesh " + quoted(*id) + " (mesh.list lists them)");
+                          "params.mesh: no mesh " + quote(*id) + " (mesh.list lists them)");
     }
     targets.push_back(std::move(entry));
   } else {
@@ -648,9 +650,9 @@ std::vector<protocol::ReloadOutcome> Registry::reload(const std::optional<std::s
     if (!current) {
       if (!busy) enqueue(Job{entry, JobKind::Load, entry->status().build});
       outcome.error = ProtocolError(ErrorReason::MeshNotReady,
-                                    busy ? "mesh " + quoted(entry->id()) +
+                                    busy ? "mesh " + quote(entry->id()) +
                                                " is still loading or building; nothing to reload"
-                                         : "mesh " + quoted(entry->id()) +
+                                         : "mesh " + quote(entry->id()) +
                                                " had no graph in service; loading it again in "
                                                "the background (mesh.list shows the progress)");
       outcomes.push_back(std::move(outcome));

@@ -1,8 +1,9 @@
 // The registry of meshes: for each id, the mesh's files and build parameters, its state
 // (building / ready / failed, with progress and error) and, once ready, an immutable LoadedMesh.
 //
-// A LoadedMesh bundles everything a query reads (mesh, intrinsic geometry, the mapped graph file,
-// the GeodesicQuery over them) plus a bounded pool of QueryScratch leased per request. It is held
+// A LoadedMesh is a core::LoadedGraph (mesh, intrinsic geometry, the mapped graph file, the
+// GeodesicQuery over them: everything a query reads) plus a bounded pool of QueryScratch leased
+// per request. It is held
 // by shared_ptr and swapped atomically on reload or rebuild: a request keeps the LoadedMesh it
 // started with, so queries in flight finish on the old graph, which is unmapped when the last of
 // them ends. Nothing in a LoadedMesh changes after construction except the scratch pool (its own
@@ -32,21 +33,13 @@
 #include "core/query/geodesic_query.h"
 #include "core/apps/geodesic_spline.h"
 #include "core/graph/graph_file.h"
+#include "core/graph/loaded_graph.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
 #include "protocol/messages.h"
 #include "server/config.h"
 
 namespace geoprox::server {
-
-/// A mesh and its intrinsic geometry (which points into it: never moved once built).
-struct MeshData {
-  explicit MeshData(TriangleMesh m) : mesh(std::move(m)), geometry(mesh) {}
-  MeshData(const MeshData&) = delete;
-  MeshData& operator=(const MeshData&) = delete;
-  TriangleMesh mesh;
-  IntrinsicGeometry geometry;
-};
 
 /// Per-request working memory on one LoadedMesh: the query scratch (which exact distances use
 /// too) and, for the requests that need them, an exponential map and a spline evaluator (each
@@ -94,17 +87,15 @@ class LoadedMesh {
   Lease lease() const;
 
   const std::string& version() const { return version_; }
-  const MeshData& data() const { return *data_; }
-  const std::shared_ptr<const MeshData>& data_ptr() const { return data_; }
-  const TriangleMesh& mesh() const { return data_->mesh; }
-  const MappedGraphFile& file() const { return file_; }
-  const GeodesicQuery& query() const { return *query_; }
+  const MeshData& data() const { return *graph_.data; }
+  const std::shared_ptr<const MeshData>& data_ptr() const { return graph_.data; }
+  const TriangleMesh& mesh() const { return graph_.mesh; }
+  const MappedGraphFile& file() const { return graph_.file; }
+  const GeodesicQuery& query() const { return *graph_.query; }
   std::size_t scratch_created() const;
 
  private:
-  std::shared_ptr<const MeshData> data_;
-  MappedGraphFile file_;
-  std::unique_ptr<GeodesicQuery> query_;
+  LoadedGraph graph_;
   std::string version_;
   std::size_t max_scratch_;
   QueryScratch::RunBoth run_both_;
@@ -256,5 +247,7 @@ class Registry {
 protocol::MeshSummary to_summary(const MeshStatus& status);
 /// "message [Reason]" of a core error, or what() of anything else.
 std::string describe_exception(const std::exception& e);
+/// `text` in double quotes, as error messages name mesh ids and files.
+std::string quote(std::string_view text);
 
 }  // namespace geoprox::server

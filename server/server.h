@@ -1,11 +1,14 @@
-// geoproxd's transport: Boost.Asio acceptor and connections, the compute pool, the admin HTTP
-// endpoint (/metrics, /healthz, /readyz), signals and graceful shutdown. docs/daemon.md
-// describes the behaviour; server/service.h answers the requests.
+// geoproxd as a library: the server that listens on the query port (and the admin HTTP port),
+// answers requests through server/service.h, reloads on SIGHUP and shuts down gracefully.
+// docs/daemon.md describes the behaviour. Inside, in the layout of Asio's HTTP server example:
+// acceptor.h (listening sockets), connection.h (one client), connection_manager.h (the open
+// connections), admin_http.h (/metrics, /healthz, /readyz).
 //
 // Threads: `io_threads` threads run the io_context (accept, read, frame, decode, write, and the
 // cheap methods: mesh.list, mesh.info, server.*); `compute_threads` threads run every query,
 // batch and admin call; one builder thread (server/registry.h) loads and builds graphs. Each
-// connection's handlers run on its own strand.
+// connection's handlers run on its own strand. start() is called once; the other methods may
+// be called from any thread.
 #pragma once
 
 #include <cstdint>
@@ -57,9 +60,8 @@ class Server {
   Service& service();
   Metrics& metrics();
 
-  struct Impl;
-
  private:
+  struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 

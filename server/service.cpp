@@ -13,10 +13,6 @@
 #include "core/apps/geodesic_spline.h"
 #include "core/mesh/surface_point.h"
 
-#ifndef GEOPROX_VERSION
-#define GEOPROX_VERSION "0.0.0"
-#endif
-
 namespace geoprox::server {
 
 namespace fs = std::filesystem;
@@ -33,8 +29,6 @@ struct Overloaded : Ts... {
 };
 template <class... Ts>
 Overloaded(Ts...) -> Overloaded<Ts...>;
-
-std::string quoted(const std::string& s) { return "\"" + s + "\""; }
 
 /// The protocol reason of an InvalidInput: point reasons keep their name, positions that cannot
 /// be snapped and unreadable point text are BadPoint, any other reason is InvalidParams.
@@ -61,7 +55,7 @@ std::shared_ptr<const LoadedMesh> acquire(const Registry& registry, const Config
   auto entry = registry.find(id);
   if (!entry) {
     throw ProtocolError(ErrorReason::UnknownMesh,
-                        "params.mesh: no mesh " + quoted(id) + " (mesh.list lists them)");
+                        "params.mesh: no mesh " + quote(id) + " (mesh.list lists them)");
   }
   context.mesh = id;
   if (auto loaded = entry->loaded()) return loaded;
@@ -71,12 +65,12 @@ std::shared_ptr<const LoadedMesh> acquire(const Registry& registry, const Config
     char progress[32];
     std::snprintf(progress, sizeof progress, "%.0f%%", 100 * status.progress);
     throw ProtocolError(ErrorReason::MeshNotReady,
-                        "mesh " + quoted(id) + " is building (" + progress +
+                        "mesh " + quote(id) + " is building (" + progress +
                             (status.phase ? ", " + *status.phase : std::string()) + ")")
         .set_retry_after_ms(config.not_ready_retry_after_ms);
   }
   throw ProtocolError(ErrorReason::MeshBuildFailed,
-                      "mesh " + quoted(id) + " has no graph: " +
+                      "mesh " + quote(id) + " has no graph: " +
                           status.error.value_or("unknown error") + " (mesh.list has the error)");
 }
 
@@ -153,6 +147,11 @@ protocol::DistanceResult run_distance(const protocol::DistanceParams& p, const L
   return r;
 }
 
+protocol::PathPoint to_wire_point(const PathPoint& point, const TriangleMesh& mesh) {
+  const auto [face, bary] = point.point.in_face(mesh);
+  return {face, bary, {point.position.x, point.position.y, point.position.z}};
+}
+
 protocol::PathResult run_path(const protocol::PathParams& p, const LoadedMesh& m,
                               RequestContext& context) {
   const SurfacePoint s = resolve(p.source, m, "params.source");
@@ -167,10 +166,7 @@ protocol::PathResult run_path(const protocol::PathParams& p, const LoadedMesh& m
   r.distance = path.distance;
   r.exact = path.exact;
   r.points.reserve(path.points.size());
-  for (const PathPoint& point : path.points) {
-    const auto [face, bary] = point.point.in_face(m.mesh());
-    r.points.push_back({face, bary, {point.position.x, point.position.y, point.position.z}});
-  }
+  for (const PathPoint& point : path.points) r.points.push_back(to_wire_point(point, m.mesh()));
   return r;
 }
 
@@ -228,11 +224,6 @@ protocol::MatrixResult run_matrix(const protocol::MatrixParams& p, const LoadedM
   r.target_count = targets.size();
   r.distances = m.query().matrix(sources, targets, lease.scratch());
   return r;
-}
-
-protocol::PathPoint to_wire_point(const PathPoint& point, const TriangleMesh& mesh) {
-  const auto [face, bary] = point.point.in_face(mesh);
-  return {face, bary, {point.position.x, point.position.y, point.position.z}};
 }
 
 protocol::ExpmapResult run_expmap(const protocol::ExpmapParams& p, const LoadedMesh& m,
@@ -451,35 +442,7 @@ json Service::execute(const protocol::Params& params, RequestContext& context) c
             }
             return r;
           },
-          [&](const protocol::MeshInfoParams& p) -> json {
-            auto entry = registry_.find(p.mesh);
-            if (!entry) {
-              throw ProtocolError(ErrorReason::UnknownMesh,
-                                  "params.mesh: no mesh " + quoted(p.mesh) +
-                                      " (mesh.list lists them)");
-            }
-            context.mesh = p.mesh;
-            const MeshStatus s = entry->status();
-            protocol::MeshInfoResult r;
-            r.summary = to_summary(s);
-            r.edges = s.edges;
-            r.mesh_file = display_path(s.mesh_path, config_.data_dir);
-            r.graph_file = display_path(s.graph_path, config_.data_dir);
-            if (s.loaded) {
-              const GraphFileParams fp = s.loaded->file().params();
-              r.graph_edges = s.loaded->file().counts().graph_edges;
-              r.covering_radius = s.loaded->file().covering_radius();
-              r.link_radius = s.loaded->file().link_radius();
-              r.build.samples = fp.num_samples;
-              r.build.neighbors = fp.neighbors;
-              r.build.sampling = to_wire(fp.sampling);
-            } else {
-              if (s.build.samples) r.build.samples = s.build.samples;
-              if (s.build.neighbors) r.build.neighbors = s.build.neighbors;
-              r.build.sampling = to_wire(s.build.sampling);
-            }
-            return r;
-          },
+          [&](const protocol::MeshInfoParams& p) -> json { return mesh_info(p, context); },
           [&](const protocol::ServerInfoParams&) -> json {
             protocol::ServerInfoResult r;
             r.server_version = GEOPROX_VERSION;
@@ -489,7 +452,7 @@ json Service::execute(const protocol::Params& params, RequestContext& context) c
           },
           [&](const protocol::ServerHealthParams&) -> json { return health(); },
           [&](const protocol::ServerAuthParams& p) -> json {
-            // The connection keeps the outcome (server/server.cpp); the token is never echoed.
+            // The connection keeps the outcome (server/connection.cpp); the token is never echoed.
             if (!query_token_matches(p.token)) {
               throw ProtocolError(ErrorReason::Unauthorized, "params.token: wrong query token");
             }
@@ -523,6 +486,36 @@ json Service::execute(const protocol::Params& params, RequestContext& context) c
           },
       },
       params);
+}
+
+json Service::mesh_info(const protocol::MeshInfoParams& p, RequestContext& context) const {
+  auto entry = registry_.find(p.mesh);
+  if (!entry) {
+    throw ProtocolError(ErrorReason::UnknownMesh,
+                        "params.mesh: no mesh " + quote(p.mesh) +
+                            " (mesh.list lists them)");
+  }
+  context.mesh = p.mesh;
+  const MeshStatus s = entry->status();
+  protocol::MeshInfoResult r;
+  r.summary = to_summary(s);
+  r.edges = s.edges;
+  r.mesh_file = display_path(s.mesh_path, config_.data_dir);
+  r.graph_file = display_path(s.graph_path, config_.data_dir);
+  if (s.loaded) {
+    const GraphFileParams fp = s.loaded->file().params();
+    r.graph_edges = s.loaded->file().counts().graph_edges;
+    r.covering_radius = s.loaded->file().covering_radius();
+    r.link_radius = s.loaded->file().link_radius();
+    r.build.samples = fp.num_samples;
+    r.build.neighbors = fp.neighbors;
+    r.build.sampling = to_wire(fp.sampling);
+  } else {
+    if (s.build.samples) r.build.samples = s.build.samples;
+    if (s.build.neighbors) r.build.neighbors = s.build.neighbors;
+    r.build.sampling = to_wire(s.build.sampling);
+  }
+  return r;
 }
 
 json Service::batch(const protocol::BatchParams& params, RequestContext& context) const {

@@ -71,6 +71,7 @@ class Service {
  private:
   nlohmann::json execute(const protocol::Params& params, RequestContext& context) const;
   nlohmann::json batch(const protocol::BatchParams& params, RequestContext& context) const;
+  nlohmann::json mesh_info(const protocol::MeshInfoParams& params, RequestContext& context) const;
   void check_admin_token(const std::string& token) const;
 
   const Config& config_;

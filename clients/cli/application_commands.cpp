@@ -1,4 +1,4 @@
-// Applications of the queries (issue 7, paper §6), calling core directly:
+// Applications of the queries (paper §6), calling core directly:
 //   geoprox expmap MESH --graph G --source P --radius R [--exact] [--metric FILE] [--out FILE]
 //   geoprox spline MESH --graph G --type bezier|bspline --samples N --control P P P P ...
 //                  [--exact] [--metric FILE] [--out FILE]
@@ -71,7 +71,8 @@ void add_common_options(CLI::App* command, CommonArgs& args) {
 
 void check_graph_given(const CommonArgs& args) {
   if (!args.exact && args.graph.empty()) {
-    throw InvalidInput(ErrorCode::MissingGraph, "--graph FILE is required (or --exact for the exact solver)");
+    throw InvalidInput(ErrorCode::MissingGraph,
+                       "--graph FILE is required (or --exact for the exact solver)");
   }
 }
 
@@ -174,31 +175,42 @@ void add_application_commands(CLI::App& app, std::vector<Command>& commands) {
   CLI::App* expmap = app.add_subcommand(
       "expmap", "Discrete exponential map: geodesic polar coordinates around a point (paper §6.1)");
   add_common_options(expmap, *expmap_args);
-  expmap->add_option("-s,--source", expmap_args->source, "Centre of the map: v:ID, e:ID:t or f:ID:b0:b1:b2")
+  expmap
+      ->add_option("-s,--source", expmap_args->source,
+                   "Centre of the map: v:ID, e:ID:t or f:ID:b0:b1:b2")
       ->required();
-  expmap->add_option("-r,--radius", expmap_args->radius, "Map every vertex within this geodesic distance")
+  expmap
+      ->add_option("-r,--radius", expmap_args->radius,
+                   "Map every vertex within this geodesic distance")
       ->required()
       ->check(CLI::Validator(check_radius, "R>=0"));
   expmap->footer(
       "Output: one line 'VERTEX U V' per vertex within --radius, in vertex order, at full\n"
       "precision; (U, V) = d (cos theta, sin theta), d the geodesic distance and theta the angle\n"
-      "of the shortest path's start direction in the source's tangent frame (docs/applications.md).\n"
+      "of the shortest path's start direction in the source's tangent frame "
+      "(docs/applications.md).\n"
       "The timing goes to standard error.\n\n" +
       exit_code_footer());
   add_command(commands, expmap, expmap_args, run_expmap);
 
   auto spline_args = std::make_shared<SplineArgs>();
   CLI::App* spline = app.add_subcommand(
-      "spline", "Cubic Bezier or B-spline curve on the surface by geodesic de Casteljau / de Boor "
-                "(paper §6.2)");
+      "spline",
+      "Cubic Bezier or B-spline curve on the surface by geodesic de Casteljau / de Boor "
+      "(paper §6.2)");
   add_common_options(spline, *spline_args);
-  spline->add_option("-t,--type", spline_args->type, "bezier (3k+1 control points) or bspline (>= 4)")
+  spline
+      ->add_option("-t,--type", spline_args->type, "bezier (3k+1 control points) or bspline (>= 4)")
       ->check(CLI::IsMember({"bezier", "bspline"}));
-  spline->add_option("-n,--samples", spline_args->samples, "Curve points, both ends included (>= 2)");
-  spline->add_option("--threads", spline_args->threads,
-                     "Threads over the curve points (default 0: all cores)")
+  spline->add_option("-n,--samples", spline_args->samples,
+                     "Curve points, both ends included (>= 2)");
+  spline
+      ->add_option("--threads", spline_args->threads,
+                   "Threads over the curve points (default 0: all cores)")
       ->check(CLI::NonNegativeNumber);
-  spline->add_option("-c,--control", spline_args->control, "Control points: v:ID, e:ID:t or f:ID:b0:b1:b2")
+  spline
+      ->add_option("-c,--control", spline_args->control,
+                   "Control points: v:ID, e:ID:t or f:ID:b0:b1:b2")
       ->required()
       ->expected(1, -1);
   spline->footer(

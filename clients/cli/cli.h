@@ -1,8 +1,16 @@
-// Shared declarations of the `geoprox` command-line tool (no paper).
+// Shared declarations of the `geoprox` command-line tool.
 //
-// main.cpp owns the CLI11 application and turns exceptions into exit codes; each command group
-// (offline_commands.cpp: `info`, `exact`) registers its subcommands and what they run; output.cpp
-// writes results to standard output or, all or nothing, to a file.
+// main.cpp owns the CLI11 application and turns exceptions into exit codes. Each command group
+// registers its subcommands and what they run, in the order of `geoprox --help`:
+//   offline_commands.cpp      info, exact, repair, refine (core directly, no graph)
+//   graph_commands.cpp        build, inspect (proximity-graph files)
+//   query_commands.cpp        distance, field, path, render (queries on a built graph)
+//   eval_command.cpp          eval (accuracy against the exact solver, timings)
+//   application_commands.cpp  expmap, spline
+//   client_commands.cpp       remote (distance, path, field, matrix, meshes, health, info on a
+//                             geoproxd daemon)
+// output.cpp writes results to standard output or, all or nothing, to a file; result_files.cpp
+// and render.cpp write PLY, OBJ and PNG files.
 #pragma once
 
 #include <functional>
@@ -18,8 +26,9 @@ class App;
 
 namespace geoprox::cli {
 
-/// Keep in step with project(VERSION) in the top-level CMakeLists.txt (tests/cli checks it).
-inline constexpr const char* kVersion = "0.1.0";
+/// The project's version: project(VERSION) in the top-level CMakeLists.txt, given by
+/// clients/cli/CMakeLists.txt as GEOPROX_VERSION.
+inline constexpr const char* kVersion = GEOPROX_VERSION;
 
 /// Exit codes of `geoprox`, documented in the --help footer.
 enum ExitCode : int {
@@ -39,7 +48,8 @@ struct Command {
   std::function<void()> run;
 };
 
-/// Adds the offline commands (`info`, `exact`), which call geoprox::core directly.
+/// Adds the offline commands (`info`, `exact`, `repair`, `refine`), which call geoprox::core
+/// directly.
 void add_offline_commands(CLI::App& app, std::vector<Command>& commands);
 
 /// Adds the proximity-graph commands (`build`, `inspect`).
@@ -69,8 +79,15 @@ void append_number(std::string& out, double value);
 /// The words separated by single spaces ("v:0 v:5").
 std::string join_words(const std::vector<std::string>& words);
 
-/// Adds the query commands on a built graph (`distance`, `field`, `eval`).
+/// Adds the query commands on a built graph (`distance`, `field`, `path`, `render`).
 void add_query_commands(CLI::App& app, std::vector<Command>& commands);
+
+/// Adds `eval` (clients/cli/eval_command.cpp).
+void add_eval_command(CLI::App& app, std::vector<Command>& commands);
+
+/// --metric on a command that reads a graph: the graph's edge lengths must be the mesh's under
+/// that metric (docs/metrics.md), else opening it fails with MeshMismatch.
+void add_metric_option(CLI::App& command, std::string& metric);
 
 /// Adds `expmap` and `spline` (clients/cli/application_commands.cpp).
 void add_application_commands(CLI::App& app, std::vector<Command>& commands);

@@ -1,8 +1,8 @@
-// `geoprox remote ...`: the command-line client of a geoproxd daemon (issue 6, section 1),
-// through the C++ client library (clients/cpp/geoprox_client.h). The offline `distance` and
-// `field` commands (query_commands.cpp) stay as they are; everything that talks to a daemon is
-// under `remote`. `field --out` and `path --out` write result files (issue 6, section 2): the
-// daemon does not send mesh geometry, so `field --out` reads a local copy (--mesh-file).
+// `geoprox remote ...`: the command-line client of a geoproxd daemon, through the C++ client
+// library (clients/cpp/geoprox_client.h). The offline `distance` and `field` commands
+// (query_commands.cpp) read files; everything that talks to a daemon is under `remote`.
+// `field --out` and `path --out` write result files: the daemon does not send mesh geometry,
+// so `field --out` reads a local copy (--mesh-file).
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdint>

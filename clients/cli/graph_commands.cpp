@@ -1,4 +1,4 @@
-// `geoprox build` and `geoprox inspect`: proximity-graph files (issue 3), calling core directly.
+// `geoprox build` and `geoprox inspect`: proximity-graph files, calling core directly.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>

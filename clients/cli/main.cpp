@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
   add_offline_commands(app, commands);
   add_graph_commands(app, commands);
   add_query_commands(app, commands);
+  add_eval_command(app, commands);
   add_application_commands(app, commands);
   add_client_commands(app, commands);
 

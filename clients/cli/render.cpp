@@ -79,9 +79,9 @@ double max_finite(const std::vector<double>& values) {
 
 Rasterizer::Rasterizer(const RenderOptions& options) : options_(options) {
   if (options.width < 1 || options.width > 8192 || options.height < 1 || options.height > 8192) {
-    throw InvalidInput(ErrorCode::BadRenderOptions, "picture size " + std::to_string(options.width) + "x" +
-                                               std::to_string(options.height) +
-                                               " is outside 1..8192 pixels per side");
+    throw InvalidInput(ErrorCode::BadRenderOptions,
+                       "picture size " + std::to_string(options.width) + "x" +
+                           std::to_string(options.height) + " is outside 1..8192 pixels per side");
   }
   if (options.supersampling < 1 || options.supersampling > 8) {
     throw InvalidInput(
@@ -101,11 +101,15 @@ Rasterizer::Rasterizer(const RenderOptions& options) : options_(options) {
   height_ = options.height * options_.supersampling;
 }
 
-Image Rasterizer::draw(const RenderScene& scene) {
+namespace {
+
+/// Refuses decals, values or triangles that do not match the vertices.
+void check_scene(const RenderScene& scene) {
   const std::size_t n = scene.positions.size();
   if (!scene.decal.empty() && scene.decal.size() != n) {
-    throw InvalidInput(ErrorCode::BadScene, std::to_string(scene.decal.size()) + " decal coordinates for " +
-                                       std::to_string(n) + " vertices");
+    throw InvalidInput(ErrorCode::BadScene, std::to_string(scene.decal.size()) +
+                                                " decal coordinates for " + std::to_string(n) +
+                                                " vertices");
   }
   if (!scene.values.empty() && scene.values.size() != n) {
     throw InvalidInput(ErrorCode::BadScene, std::to_string(scene.values.size()) + " values for " +
@@ -119,6 +123,35 @@ Image Rasterizer::draw(const RenderScene& scene) {
       }
     }
   }
+}
+
+/// Gouraud: the headlight's intensity at each vertex from its area-weighted normal, two-sided
+/// so that open meshes seen from behind are lit too.
+std::vector<double> vertex_light(const RenderScene& scene, const Vec& eye, double ambient_light) {
+  const std::size_t n = scene.positions.size();
+  std::vector<Vec> normals(n, Vec{0, 0, 0});
+  for (const auto& t : scene.triangles) {
+    const Vec face_normal = cross(sub(scene.positions[t[1]], scene.positions[t[0]]),
+                                  sub(scene.positions[t[2]], scene.positions[t[0]]));
+    for (std::uint32_t v : t) {
+      for (int k = 0; k < 3; ++k) normals[v][k] += face_normal[k];
+    }
+  }
+  const double ambient = std::clamp(ambient_light, 0.0, 1.0);
+  std::vector<double> light(n, 1.0);
+  for (std::size_t v = 0; v < n; ++v) {
+    if (dot(normals[v], normals[v]) > 0) {
+      light[v] = ambient + (1 - ambient) * std::abs(dot(normalized(normals[v]), eye));
+    }
+  }
+  return light;
+}
+
+}  // namespace
+
+Image Rasterizer::draw(const RenderScene& scene) {
+  check_scene(scene);
+  const std::size_t n = scene.positions.size();
 
   // Camera: `eye` points from the scene towards the viewer; `right` and `up` span the picture.
   const double pi = std::acos(-1.0);
@@ -174,23 +207,7 @@ Image Rasterizer::draw(const RenderScene& scene) {
   std::vector<Projected> screen(n);
   for (std::size_t v = 0; v < n; ++v) screen[v] = project(scene.positions[v]);
 
-  // Gouraud: the headlight's intensity at each vertex from its area-weighted normal, two-sided
-  // so that open meshes seen from behind are lit too.
-  std::vector<Vec> normals(n, Vec{0, 0, 0});
-  for (const auto& t : scene.triangles) {
-    const Vec face_normal = cross(sub(scene.positions[t[1]], scene.positions[t[0]]),
-                                  sub(scene.positions[t[2]], scene.positions[t[0]]));
-    for (std::uint32_t v : t) {
-      for (int k = 0; k < 3; ++k) normals[v][k] += face_normal[k];
-    }
-  }
-  const double ambient = std::clamp(options_.ambient, 0.0, 1.0);
-  std::vector<double> light(n, 1.0);
-  for (std::size_t v = 0; v < n; ++v) {
-    if (dot(normals[v], normals[v]) > 0) {
-      light[v] = ambient + (1 - ambient) * std::abs(dot(normalized(normals[v]), eye));
-    }
-  }
+  const std::vector<double> light = vertex_light(scene, eye, options_.ambient);
 
   const std::size_t samples = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
   depth_.assign(samples, -std::numeric_limits<float>::infinity());

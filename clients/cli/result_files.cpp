@@ -68,9 +68,10 @@ void write_field_ply(const std::string& path, const TriangleMesh& mesh,
                      const std::vector<double>& distances,
                      const std::vector<std::string>& comments) {
   if (distances.size() != mesh.num_vertices()) {
-    throw InvalidInput(ErrorCode::MeshMismatch, "the field has " + std::to_string(distances.size()) +
-                                           " values but the mesh has " +
-                                           std::to_string(mesh.num_vertices()) + " vertices");
+    throw InvalidInput(ErrorCode::MeshMismatch,
+                       "the field has " + std::to_string(distances.size()) +
+                           " values but the mesh has " + std::to_string(mesh.num_vertices()) +
+                           " vertices");
   }
   GEOPROX_ASSERT(mesh.num_vertices() <= static_cast<std::size_t>(INT32_MAX),
                  "PLY vertex indices are int32");
@@ -186,7 +187,9 @@ void write_png(const std::string& path, const Image& image) {
   }
   const bool ok = encode(writer, image, rows.data());
   png_destroy_write_struct(&writer.png, &writer.info);
-  if (!ok) throw FileError(ErrorCode::WriteFailed, "cannot write '" + path + "': libpng: " + writer.message);
+  if (!ok)
+    throw FileError(ErrorCode::WriteFailed,
+                    "cannot write '" + path + "': libpng: " + writer.message);
   write_file_atomically(path, writer.bytes);
 }
 

@@ -5,12 +5,38 @@
 
 namespace geoprox {
 
+std::shared_ptr<MeshData> MeshData::load(const std::string& mesh_path,
+                                         const std::string& metric_path) {
+  auto data = std::make_shared<MeshData>(load_mesh(mesh_path));
+  if (!metric_path.empty()) data->geometry = load_geometry(data->mesh, metric_path);
+  return data;
+}
+
+namespace {
+
+MappedGraphFile open_verified(const std::string& graph_path, const MeshData& data) {
+  MappedGraphFile file = MappedGraphFile::open(graph_path);
+  file.verify_mesh(data.mesh, data.geometry);
+  return file;
+}
+
+}  // namespace
+
 LoadedGraph::LoadedGraph(const std::string& mesh_path, const std::string& graph_path,
                          const std::string& metric_path, const GeodesicQueryOptions& options)
-    : mesh(load_mesh(mesh_path)),
-      geometry(load_geometry(mesh, metric_path)),
-      file(MappedGraphFile::open(graph_path)) {
-  file.verify_mesh(mesh, geometry);
+    : data(MeshData::load(mesh_path, metric_path)),
+      mesh(data->mesh),
+      geometry(data->geometry),
+      file(open_verified(graph_path, *data)) {
+  query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view(), options);
+}
+
+LoadedGraph::LoadedGraph(std::shared_ptr<const MeshData> mesh_data, MappedGraphFile graph_file,
+                         const GeodesicQueryOptions& options)
+    : data(std::move(mesh_data)),
+      mesh(data->mesh),
+      geometry(data->geometry),
+      file(std::move(graph_file)) {
   query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view(), options);
 }
 

@@ -1,32 +1,56 @@
 // A mesh, its proximity-graph file (checked against the mesh) and a query object over both, as
-// the command-line tool and the benchmarks open them (no paper: plumbing over
-// core/mesh/mesh_io.h, core/mesh/riemannian_metric.h, core/graph/graph_file.h and core/query/geodesic_query.h).
+// the command-line tool, the benchmarks and the daemon (server::LoadedMesh) open them. Plumbing
+// over core/mesh/mesh_io.h, core/mesh/riemannian_metric.h, core/graph/graph_file.h and
+// core/query/geodesic_query.h.
+//
+// Thread safety: nothing changes after construction; the query is as thread-safe as
+// GeodesicQuery (one QueryScratch per thread).
 #pragma once
 
 #include <memory>
 #include <string>
 
-#include "core/query/geodesic_query.h"
 #include "core/graph/graph_file.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
+#include "core/query/geodesic_query.h"
 
 namespace geoprox {
 
-struct LoadedGraph {
+/// A mesh and its intrinsic geometry, which points into the mesh: never moved once built, so
+/// held by shared_ptr (a reloaded graph keeps the mesh it was verified against).
+struct MeshData {
+  /// The mesh with its own edge lengths.
+  explicit MeshData(TriangleMesh m) : mesh(std::move(m)), geometry(mesh) {}
+  /// Loads the mesh and its geometry: the metric of side file `metric_path`, or the mesh's own
+  /// lengths when it is empty. Throws what load_mesh and load_geometry throw.
+  static std::shared_ptr<MeshData> load(const std::string& mesh_path,
+                                        const std::string& metric_path = {});
+  MeshData(const MeshData&) = delete;
+  MeshData& operator=(const MeshData&) = delete;
+
   TriangleMesh mesh;
   IntrinsicGeometry geometry;
-  MappedGraphFile file;
-  std::unique_ptr<GeodesicQuery> query;
+};
 
-  /// Loads the mesh, its geometry (the metric of side file `metric_path`, or the mesh's own
-  /// lengths when empty) and maps the graph file; throws what those throw, and the graph file's
-  /// error when it was built for another mesh or metric.
+struct LoadedGraph {
+  /// Loads the mesh and its geometry (MeshData::load) and maps the graph file; throws what
+  /// those throw, and the graph file's error when it was built for another mesh or metric.
   LoadedGraph(const std::string& mesh_path, const std::string& graph_path,
               const std::string& metric_path = {}, const GeodesicQueryOptions& options = {});
+  /// Over a mesh already loaded and a graph file the caller has checked against it
+  /// (MappedGraphFile::verify_mesh).
+  LoadedGraph(std::shared_ptr<const MeshData> mesh_data, MappedGraphFile graph_file,
+              const GeodesicQueryOptions& options = {});
   // The query points at the mesh, the geometry and the mapping: never copied or moved.
   LoadedGraph(const LoadedGraph&) = delete;
   LoadedGraph& operator=(const LoadedGraph&) = delete;
+
+  std::shared_ptr<const MeshData> data;
+  const TriangleMesh& mesh;            ///< data->mesh
+  const IntrinsicGeometry& geometry;  ///< data->geometry
+  MappedGraphFile file;
+  std::unique_ptr<GeodesicQuery> query;
 };
 
 }  // namespace geoprox

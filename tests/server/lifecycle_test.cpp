@@ -1,8 +1,8 @@
-// The daemon's life: geoproxd as a subprocess (SIGTERM drain, SIGHUP reload with a good and a
-// corrupted graph, --check), background builds (a mesh that fails does not take the others
-// down), admin methods (token, path confinement, register / rebuild / unregister / reload; a
-// mesh whose long faces leave gaps between its samples, served with a warning) and
-// the config file.
+// The daemon's life: geoproxd as a subprocess (command-line errors and exit codes, JSON request
+// log lines, SIGTERM drain, SIGHUP reload with a good and a corrupted graph, --check),
+// background builds (a mesh that fails does not take the others down), admin methods (token,
+// path confinement, register / rebuild / unregister / reload; a mesh whose long faces leave gaps
+// between its samples, served with a warning) and the config file.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 
 #include <cmath>
+#include <map>
 #include <sstream>
 
 #include "server/service.h"
@@ -271,6 +272,79 @@ TEST(Daemon, CheckValidatesConfigMeshesAndGraphs) {
     EXPECT_EQ(check.wait(60s), 1);
     EXPECT_NE(read_bytes(log).find("unknown key \"prot\""), std::string::npos) << read_bytes(log);
   }
+}
+
+TEST(Daemon, CommandLineErrorsKeepTheirExitCodes) {
+  TempDir dir;
+  const fs::path log = dir.path() / "cli.log";
+  struct Case {
+    std::vector<std::string> args;
+    int exit_code;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {{"--version"}, 0, ""},
+      {{"--bogus"}, 2, "geoproxd: unknown argument \"--bogus\""},
+      {{"stray"}, 2, "geoproxd: unknown argument \"stray\""},
+      {{}, 2, "geoproxd: --config FILE is required"},
+      {{"--port"}, 1, "geoproxd: config error: --port: needs a value"},
+      {{"--probe", "--admin-port", "x"},
+       1,
+       "geoproxd: config error: --admin-port: \"x\" is not a port number (0 to 65535)"},
+      {{"--config", (dir.path() / "missing.json").string()}, 1, "geoproxd: config error: "},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.args.empty() ? std::string("(no arguments)") : c.args.front());
+    Daemon daemon(c.args, log);
+    EXPECT_EQ(daemon.wait(30s), c.exit_code) << read_bytes(log);
+    EXPECT_NE(read_bytes(log).find(c.message), std::string::npos) << read_bytes(log);
+  }
+}
+
+TEST(Daemon, JsonLogLinesCarryTheRequestFields) {
+  TestData data;
+  const fs::path config = write_config(data, {{"log_json", true}, {"log_level", "debug"}});
+  const fs::path port_file = data.dir.path() / "ports.json";
+  const fs::path log = data.dir.path() / "daemon.log";
+  Daemon daemon({"--config", config.string(), "--port-file", port_file.string()}, log);
+  const std::uint16_t port = wait_for_port(port_file, log);
+  ASSERT_NE(port, 0);
+  wait_for_state(port, "spot", "ready");
+  {
+    Client c(port);
+    c.send(7, "geodesic.distance",
+           {{"mesh", "spot"}, {"source", {{"vertex", 0}}}, {"target", {{"vertex", 5}}}});
+    EXPECT_TRUE(c.read_json().contains("result"));
+    c.send("eight", "mesh.info", {{"mesh", "no-such-mesh"}});
+    EXPECT_TRUE(c.read_json().contains("error"));
+  }
+  daemon.signal(SIGTERM);
+  ASSERT_EQ(daemon.wait(30s), 0) << read_bytes(log);
+
+  std::map<std::string, json> requests;  // by id, as text
+  std::istringstream lines(read_bytes(log));
+  std::string line;
+  while (std::getline(lines, line)) {
+    json entry;
+    ASSERT_NO_THROW(entry = json::parse(line)) << line;
+    for (const char* key : {"time", "level", "thread", "msg"}) {
+      EXPECT_TRUE(entry.contains(key)) << key << " missing: " << line;
+    }
+    if (entry["msg"] == "request") requests[entry["id"].dump()] = entry;
+  }
+  ASSERT_EQ(requests.count("7"), 1u) << read_bytes(log);
+  const json& ok = requests["7"];
+  EXPECT_EQ(ok["level"], "debug");
+  EXPECT_EQ(ok["method"], "geodesic.distance");
+  EXPECT_EQ(ok["mesh"], "spot");
+  EXPECT_EQ(ok["outcome"], "ok");
+  EXPECT_TRUE(ok["duration_ms"].is_number()) << ok.dump();
+  EXPECT_TRUE(ok["peer"].is_string()) << ok.dump();
+  ASSERT_EQ(requests.count("\"eight\""), 1u) << read_bytes(log);
+  const json& failed = requests["\"eight\""];
+  EXPECT_EQ(failed["method"], "mesh.info");
+  EXPECT_TRUE(failed["mesh"].is_null()) << failed.dump();
+  EXPECT_EQ(failed["outcome"], "UnknownMesh");
 }
 
 TEST(Registry, AFailingMeshDoesNotTakeTheOthersDown) {

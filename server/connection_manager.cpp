@@ -1,0 +1,36 @@
+#include "server/connection_manager.h"
+
+#include "server/connection.h"
+
+namespace geoprox::server {
+
+void ConnectionManager::add(const std::shared_ptr<Connection>& connection) {
+  std::lock_guard lock(mutex_);
+  connections_.emplace(connection.get(), connection);
+  metrics_.connections.fetch_add(1);
+  metrics_.connections_total.fetch_add(1);
+}
+
+void ConnectionManager::remove(const Connection* connection) {
+  std::lock_guard lock(mutex_);
+  if (connections_.erase(connection)) metrics_.connections.fetch_sub(1);
+}
+
+std::vector<std::shared_ptr<Connection>> ConnectionManager::snapshot() {
+  std::lock_guard lock(mutex_);
+  std::vector<std::shared_ptr<Connection>> out;
+  for (auto& [raw, weak] : connections_) {
+    if (auto connection = weak.lock()) out.push_back(std::move(connection));
+  }
+  return out;
+}
+
+void ConnectionManager::drain_close_all() {
+  for (auto& connection : snapshot()) connection->drain_close();
+}
+
+void ConnectionManager::force_close_all() {
+  for (auto& connection : snapshot()) connection->force_close();
+}
+
+}  // namespace geoprox::server
