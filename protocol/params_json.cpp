@@ -1,5 +1,5 @@
 // Parameters back to JSON, as clients send them (the inverse of parse_params).
-#include "protocol/messages.h"
+#include "protocol/params.h"
 
 #include "protocol/points.h"
 

@@ -5,7 +5,7 @@
 
 #include "protocol/json_access.h"
 #include "protocol/json_rpc.h"
-#include "protocol/messages.h"
+#include "protocol/params.h"
 #include "protocol/points.h"
 
 namespace geoprox::protocol {

@@ -1,5 +1,5 @@
 // Results to JSON (and the field result's own serialisation, written without a JSON tree).
-#include "protocol/messages.h"
+#include "protocol/results.h"
 
 #include <cmath>
 
@@ -52,13 +52,13 @@ void to_json(json& out, const DistanceResult& result) {
          {"exact", result.exact}};
 }
 
-void to_json(json& out, const PathPoint& point) {
+void to_json(json& out, const WirePathPoint& point) {
   out = {{"face", point.face}, {"bary", point.bary}, {"position", point.position}};
 }
 
 void to_json(json& out, const PathResult& result) {
   json points = json::array();
-  for (const PathPoint& point : result.points) points.push_back(point);
+  for (const WirePathPoint& point : result.points) points.push_back(point);
   out = {{"mesh", result.mesh},
          {"mesh_version", result.mesh_version},
          {"distance", finite_distance(result.distance, "geodesic.path")},
@@ -261,7 +261,7 @@ void to_json(json& out, const ExpmapResult& result) {
 
 void to_json(json& out, const SplineResult& result) {
   json polygon = json::array();
-  for (const std::vector<PathPoint>& leg : result.control_polygon) polygon.push_back(leg);
+  for (const std::vector<WirePathPoint>& leg : result.control_polygon) polygon.push_back(leg);
   out = {{"mesh", result.mesh},
          {"mesh_version", result.mesh_version},
          {"type", spline_kind_name(result.type)},

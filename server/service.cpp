@@ -34,17 +34,25 @@ Overloaded(Ts...) -> Overloaded<Ts...>;
 /// be snapped and unreadable point text are BadPoint, any other reason is InvalidParams.
 ErrorReason invalid_input_reason(ErrorCode code) {
   switch (code) {
-    case ErrorCode::VertexOutOfRange: return ErrorReason::VertexOutOfRange;
-    case ErrorCode::EdgeOutOfRange: return ErrorReason::EdgeOutOfRange;
-    case ErrorCode::FaceOutOfRange: return ErrorReason::FaceOutOfRange;
-    case ErrorCode::SampleOutOfRange: return ErrorReason::SampleOutOfRange;
-    case ErrorCode::IsolatedVertex: return ErrorReason::IsolatedVertex;
-    case ErrorCode::BadBarycentric: return ErrorReason::BadBarycentric;
-    case ErrorCode::BadEdgeParameter: return ErrorReason::BadEdgeParameter;
+    case ErrorCode::VertexOutOfRange:
+      return ErrorReason::VertexOutOfRange;
+    case ErrorCode::EdgeOutOfRange:
+      return ErrorReason::EdgeOutOfRange;
+    case ErrorCode::FaceOutOfRange:
+      return ErrorReason::FaceOutOfRange;
+    case ErrorCode::SampleOutOfRange:
+      return ErrorReason::SampleOutOfRange;
+    case ErrorCode::IsolatedVertex:
+      return ErrorReason::IsolatedVertex;
+    case ErrorCode::BadBarycentric:
+      return ErrorReason::BadBarycentric;
+    case ErrorCode::BadEdgeParameter:
+      return ErrorReason::BadEdgeParameter;
     case ErrorCode::BadPoint:
     case ErrorCode::BadPosition:
     case ErrorCode::TooFarFromSurface:
-    case ErrorCode::BadPointSyntax: return ErrorReason::BadPoint;
+    case ErrorCode::BadPointSyntax:
+      return ErrorReason::BadPoint;
     default: return ErrorReason::InvalidParams;
   }
 }
@@ -97,8 +105,9 @@ SurfacePoint resolve(const WirePoint& w, const LoadedMesh& m, const std::string&
     }
     p.validate(m.mesh());
     if (p.kind == SurfacePoint::Kind::Vertex && m.mesh().is_isolated_vertex(p.id)) {
-      throw InvalidInput(ErrorCode::IsolatedVertex, "vertex " + std::to_string(p.id) +
-                                               " belongs to no face, so no geodesic reaches it");
+      throw InvalidInput(
+          ErrorCode::IsolatedVertex,
+          "vertex " + std::to_string(p.id) + " belongs to no face, so no geodesic reaches it");
     }
     return p;
   } catch (const InvalidInput& e) {
@@ -147,7 +156,7 @@ protocol::DistanceResult run_distance(const protocol::DistanceParams& p, const L
   return r;
 }
 
-protocol::PathPoint to_wire_point(const PathPoint& point, const TriangleMesh& mesh) {
+protocol::WirePathPoint to_wire_point(const PathPoint& point, const TriangleMesh& mesh) {
   const auto [face, bary] = point.point.in_face(mesh);
   return {face, bary, {point.position.x, point.position.y, point.position.z}};
 }
@@ -276,7 +285,7 @@ protocol::SplineResult run_spline(const protocol::SplineParams& p, const LoadedM
   r.points.reserve(curve.curve.size());
   for (const PathPoint& point : curve.curve) r.points.push_back(to_wire_point(point, m.mesh()));
   for (const std::vector<PathPoint>& leg : curve.control_polygon) {
-    std::vector<protocol::PathPoint> wire;
+    std::vector<protocol::WirePathPoint> wire;
     wire.reserve(leg.size());
     for (const PathPoint& point : leg) wire.push_back(to_wire_point(point, m.mesh()));
     r.control_polygon.push_back(std::move(wire));

@@ -180,11 +180,11 @@ void write_result_file(const std::string& command, const RemoteArgs& args,
   if (command == "field") {
     const std::vector<double> distances = field_distances(result);
     if (distances.size() != mesh->num_vertices()) {
-      throw InvalidInput(ErrorCode::MeshMismatch,
-                         "--mesh-file " + args.mesh_file + " has " +
-                             std::to_string(mesh->num_vertices()) + " vertices but the daemon's '" +
-                             args.mesh + "' has " + std::to_string(distances.size()) +
-                             ": not the same mesh");
+      throw InvalidInput(ErrorCode::MeshMismatch, "--mesh-file " + args.mesh_file + " has " +
+                                                      std::to_string(mesh->num_vertices()) +
+                                                      " vertices but the daemon's '" + args.mesh +
+                                                      "' has " + std::to_string(distances.size()) +
+                                                      ": not the same mesh");
     }
     write_field_ply(args.out, *mesh, distances,
                     {"geoprox remote field of " + args.mesh + " from " + join_words(args.sources) +

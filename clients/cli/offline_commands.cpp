@@ -172,7 +172,7 @@ std::string format_mesh(const std::vector<Vec3>& positions, const std::vector<Tr
   if (obj) {
     text += "# " + comment + "\n";
   } else {
-    text += "OFF\n";  // no comment: OpenMesh's OFF reader takes none
+    text += "OFF\n";  // no comment: OFF readers take none (docs/meshes.md)
     text += std::to_string(positions.size()) + ' ' + std::to_string(faces.size()) + " 0\n";
   }
   for (const Vec3& p : positions) {

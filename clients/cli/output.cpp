@@ -66,8 +66,8 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   const int fd = ::mkstemp(name.data());
   if (fd < 0) {
     throw FileError(ErrorCode::WriteFailed, "cannot write '" + path +
-                                       "': cannot create a temporary file in '" + dir.string() +
-                                       "': " + std::strerror(errno));
+                                                "': cannot create a temporary file in '" +
+                                                dir.string() + "': " + std::strerror(errno));
   }
   const std::string temporary(name.data());
   bool is_open = true;

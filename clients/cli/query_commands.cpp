@@ -98,7 +98,7 @@ void run_distance(const DistanceArgs& args) {
     if (!(fields >> a)) continue;  // blank line
     if (!(fields >> b) || (fields >> extra)) {
       throw InvalidInput(ErrorCode::BadPairsLine, args.pairs + ":" + std::to_string(line_number) +
-                                             ": expected 'SOURCE TARGET'");
+                                                      ": expected 'SOURCE TARGET'");
     }
     const std::string where = args.pairs + ":" + std::to_string(line_number);
     const SurfacePoint s = resolve_point(where, a, *g.query);

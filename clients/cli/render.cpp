@@ -90,7 +90,7 @@ Rasterizer::Rasterizer(const RenderOptions& options) : options_(options) {
   }
   if (options.up_axis < 0 || options.up_axis > 2) {
     throw InvalidInput(ErrorCode::BadRenderOptions, "up axis " + std::to_string(options.up_axis) +
-                                               " is not 0 (x), 1 (y) or 2 (z)");
+                                                        " is not 0 (x), 1 (y) or 2 (z)");
   }
   const long pixels = static_cast<long>(options.width) * options.height;
   while (options_.supersampling > 1 &&
@@ -113,13 +113,13 @@ void check_scene(const RenderScene& scene) {
   }
   if (!scene.values.empty() && scene.values.size() != n) {
     throw InvalidInput(ErrorCode::BadScene, std::to_string(scene.values.size()) + " values for " +
-                                       std::to_string(n) + " vertices");
+                                                std::to_string(n) + " vertices");
   }
   for (std::size_t f = 0; f < scene.triangles.size(); ++f) {
     for (std::uint32_t v : scene.triangles[f]) {
       if (v >= n) {
         throw InvalidInput(ErrorCode::BadScene, "triangle " + std::to_string(f) + " uses vertex " +
-                                           std::to_string(v) + " of " + std::to_string(n));
+                                                    std::to_string(v) + " of " + std::to_string(n));
       }
     }
   }

@@ -245,6 +245,8 @@ void ExponentialMap::label_samples(double rho, double radius, const QueryInterru
   }
 }
 
+// The exact region inside rho, the graph's labels beyond it, then every vertex's angle from the
+// root of its path. Over 100 lines: the angle helpers are lambdas sharing this call's caches.
 ExponentialMapResult ExponentialMap::compute_graph(const SurfacePoint& source,
                                                    const TangentFrame& frame,
                                                    const Options& options) {

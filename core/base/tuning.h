@@ -38,6 +38,19 @@ inline constexpr double kClosestPointSliverRatio = 0x1p-52;  // DBL_EPSILON
 /// would overflow to infinity and every face would tie.
 inline constexpr double kClosestPointMaxCoordinate = 1e150;
 
+/// Intrinsic geometry: a vertex whose angle sum exceeds 2*pi*(1 + this) is a saddle; flatter
+/// ones are not, since a shortest path passes straight through a flat vertex and windows on
+/// both sides cover it.
+inline constexpr double kSaddleAngleTolerance = 1e-9;
+/// Intrinsic geometry: an edge shorter than this fraction of the longest side of a face it
+/// bounds is short: the angles at its ends in that face, and so the frame of its halfedges,
+/// follow from the other two sides' difference, known to an absolute 1e-16 of their length, so
+/// that the far corner of such a layout can be far off. Its layout is taken from the longest
+/// side's instead; exact solvers stop windows at it and go on from its ends (whose faces'
+/// corners become pseudo-sources), a detour of at most twice its length. At this ratio that
+/// detour and the frames' error (1e-16 / ratio of the face) are both about 1e-8 of the face.
+inline constexpr double kShortEdgeRatio = 1e-8;
+
 // ---- Geodesic solvers (core/geodesic) -------------------------------------------------------
 
 /// Exact solver: a window is dropped only when an alternative path is shorter by more than this

@@ -35,7 +35,7 @@ void WindowPropagation::touch_face(std::uint32_t f) {
 }
 
 void WindowPropagation::relax_vertex(std::uint32_t v, double distance, std::int32_t via_window,
-                                       std::int32_t via_vertex, std::uint32_t source_index) {
+                                     std::int32_t via_vertex, std::uint32_t source_index) {
   if (!(distance < vertex_distance_[v])) return;
   if (vertex_distance_[v] == kInfinity) {  // first reached in this solve
     touched_vertices_.push_back(v);
@@ -154,7 +154,7 @@ void WindowPropagation::emit_pseudo_source(std::uint32_t v) {
 }
 
 void WindowPropagation::emit_into_corner(std::uint32_t v, std::uint32_t h, double angle_begin,
-                                           double angle_end) {
+                                         double angle_end) {
   // Face of h = v -> a, with third corner b; the window goes on the far side of edge a -> b,
   // covering the rays from v at angles [angle_begin, angle_end] from v -> a towards v -> b.
   const IntrinsicGeometry& g = *geometry_;
@@ -444,9 +444,9 @@ bool WindowPropagation::trim_against_edge_windows(Window& w) {
   return std::pair{std::min(lo, kept), std::max(hi, kept)};
 }
 
-void WindowPropagation::create_window(std::uint32_t halfedge, double b0, double b1,
-                                        Vec2 source, double sigma, std::int32_t parent,
-                                        std::int32_t root, std::uint32_t source_index) {
+void WindowPropagation::create_window(std::uint32_t halfedge, double b0, double b1, Vec2 source,
+                                      double sigma, std::int32_t parent, std::int32_t root,
+                                      std::uint32_t source_index) {
   const double L = geometry_->layout(halfedge).length;
   b0 = std::clamp(b0, 0.0, L);
   b1 = std::clamp(b1, 0.0, L);
@@ -556,7 +556,7 @@ void WindowPropagation::create_window(std::uint32_t halfedge, double b0, double 
 }
 
 void WindowPropagation::list_window(std::uint32_t halfedge, std::uint32_t index, double b0,
-                                      double b1) {
+                                    double b1) {
   HalfedgeState& state = halfedge_state_[halfedge];
   if (state.stamp != generation_) {
     state.stamp = generation_;
@@ -715,7 +715,7 @@ void WindowPropagation::propagate(std::uint32_t index) {
   // "one angle one split" pruning is subsumed here by trimming windows against the other
   // windows on their edge when they are created.)
   const double left_end = std::min(w.b1, xc), right_begin = std::max(w.b0, xc);
-  // A short side (IntrinsicGeometryOptions::short_edge_ratio) lets no window through: the frame
+  // A short side (tuning::kShortEdgeRatio) lets no window through: the frame
   // beyond it is unreliable, and its crossing record names no halfedge beyond it, so that the
   // common path tests nothing more (testing the short-side flags here costs the common path
   // instructions).
@@ -866,7 +866,6 @@ void WindowPropagation::relax_corner_through(const Window& w, std::int32_t index
 
 // ---------------------------------------------------------------------------------------------
 // Targets: estimates updated whenever a window or vertex of their face improves.
-
 
 void WindowPropagation::improve_target(std::uint32_t index, double estimate) {
   TargetState& t = target_state_[index];

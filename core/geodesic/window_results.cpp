@@ -10,8 +10,7 @@
 
 namespace geoprox::detail {
 
-WindowPropagation::Candidate WindowPropagation::best_in_face(std::uint32_t face,
-                                                                 Vec2 p) const {
+WindowPropagation::Candidate WindowPropagation::best_in_face(std::uint32_t face, Vec2 p) const {
   const IntrinsicGeometry& g = *geometry_;
   Candidate best;
   for (int i = 0; i < 3; ++i) {

@@ -70,7 +70,7 @@ std::size_t WindowPropagation::vertices_within(double distance) const {
 }
 
 void WindowPropagation::check_solve_input(std::span<const GeodesicSource> sources,
-                                            const Options& options) const {
+                                          const Options& options) const {
   for (const GeodesicSource& s : sources) {
     s.point.validate(*mesh_);
     if (!std::isfinite(s.offset) || s.offset < 0) {
@@ -91,14 +91,14 @@ void WindowPropagation::check_solve_input(std::span<const GeodesicSource> source
 }
 
 void WindowPropagation::solve(std::span<const GeodesicSource> sources,
-                                std::span<const SurfacePoint> targets, const Options& options) {
+                              std::span<const SurfacePoint> targets, const Options& options) {
   check_solve_input(sources, options);
   own_targets_.assign(*geometry_, targets);  // validates the targets first
   run(sources, own_targets_, options);
 }
 
 void WindowPropagation::solve(std::span<const GeodesicSource> sources,
-                                const GeodesicTargets& targets, const Options& options) {
+                              const GeodesicTargets& targets, const Options& options) {
   check_solve_input(sources, options);
   // Face targets are placed in the frames of the geometry they were prepared with: the same
   // mesh under another metric would put them elsewhere.
@@ -111,8 +111,8 @@ void WindowPropagation::solve(std::span<const GeodesicSource> sources,
 
 // The solve: set-up, then the main loop over the queue with its stops. Kept whole (over 100
 // lines): the stops share the loop's state, and the loop is the solver's hot path.
-void WindowPropagation::run(std::span<const GeodesicSource> sources,
-                              const GeodesicTargets& targets, const Options& options) {
+void WindowPropagation::run(std::span<const GeodesicSource> sources, const GeodesicTargets& targets,
+                            const Options& options) {
   if (options.goal && targets.size() != 1) {
     throw InvalidInput(ErrorCode::BadGoal, "a goal-directed solve needs exactly one target, got " +
                                                std::to_string(targets.size()));
@@ -272,7 +272,7 @@ void WindowPropagation::add_source(std::uint32_t index, const GeodesicSource& so
 }
 
 void WindowPropagation::seed_face_point(std::uint32_t source_index, double offset,
-                                          std::uint32_t face, const std::array<double, 3>& bary) {
+                                        std::uint32_t face, const std::array<double, 3>& bary) {
   const IntrinsicGeometry& g = *geometry_;
   const Vec2 p = g.face_point(face, bary.data());
   touch_face(face);

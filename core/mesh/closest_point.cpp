@@ -174,8 +174,8 @@ std::string format_position(const Vec3& p) {
 ClosestPointIndex::ClosestPointIndex(const TriangleMesh& mesh, const Options& options)
     : mesh_(&mesh) {
   if (options.leaf_size < 1) {
-    throw InvalidInput(ErrorCode::BadLeafSize, "leaf_size must be >= 1, got " +
-                                          std::to_string(options.leaf_size));
+    throw InvalidInput(ErrorCode::BadLeafSize,
+                       "leaf_size must be >= 1, got " + std::to_string(options.leaf_size));
   }
   const auto num_faces = static_cast<std::uint32_t>(mesh.num_faces());
   std::vector<Vec3> centroids(num_faces);
@@ -252,13 +252,14 @@ std::uint32_t ClosestPointIndex::build_node(std::uint32_t begin, std::uint32_t e
 ClosestPointResult ClosestPointIndex::closest(const Vec3& position) const {
   for (double coordinate : {position.x, position.y, position.z}) {
     if (!std::isfinite(coordinate)) {
-      throw InvalidInput(ErrorCode::BadPosition, "position " + format_position(position) +
-                                            " has a non-finite coordinate");
+      throw InvalidInput(ErrorCode::BadPosition,
+                         "position " + format_position(position) + " has a non-finite coordinate");
     }
     if (std::abs(coordinate) > kMaxCoordinate) {
-      throw InvalidInput(ErrorCode::BadPosition, "position " + format_position(position) +
-                                            " is too far out: coordinates must be at most 1e150 "
-                                            "in magnitude");
+      throw InvalidInput(ErrorCode::BadPosition,
+                         "position " + format_position(position) +
+                             " is too far out: coordinates must be at most 1e150 "
+                             "in magnitude");
     }
   }
 

@@ -47,14 +47,14 @@ IntrinsicGeometry::IntrinsicGeometry(const TriangleMesh& mesh, std::vector<doubl
     : mesh_(&mesh), edge_length_(std::move(edge_lengths)) {
   if (edge_length_.size() != mesh.num_edges()) {
     throw MeshError(ErrorCode::BadEdgeLength, "got " + std::to_string(edge_length_.size()) +
-                                         " edge lengths for a mesh with " +
-                                         std::to_string(mesh.num_edges()) + " edges");
+                                                  " edge lengths for a mesh with " +
+                                                  std::to_string(mesh.num_edges()) + " edges");
   }
   for (std::uint32_t e = 0; e < edge_length_.size(); ++e) {
     if (!std::isfinite(edge_length_[e]) || edge_length_[e] < 0) {
       throw MeshError(ErrorCode::BadEdgeLength, "edge " + std::to_string(e) + " has length " +
-                                           std::to_string(edge_length_[e]) +
-                                           "; lengths must be finite and non-negative");
+                                                    std::to_string(edge_length_[e]) +
+                                                    "; lengths must be finite and non-negative");
     }
   }
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
@@ -173,7 +173,7 @@ void IntrinsicGeometry::build(const Options& options) {
       side[i] = edge_length_[mesh.edge_of(3 * f + static_cast<std::uint32_t>(i))];
     const int k = static_cast<int>(std::max_element(side, side + 3) - side);
     auto is_short_here = [&](int j) {
-      return side[j] > 0 && side[j] < options.short_edge_ratio * longest_side[f];
+      return side[j] > 0 && side[j] < tuning::kShortEdgeRatio * longest_side[f];
     };
     if (!is_short_here((k + 1) % 3) && !is_short_here((k + 2) % 3)) continue;
     const HalfedgeLayout& base = crossing_[3 * f + static_cast<std::uint32_t>(k)].layout;
@@ -205,7 +205,7 @@ void IntrinsicGeometry::build(const Options& options) {
   }
   auto is_short = [&](std::uint32_t h) {
     const std::uint32_t e = mesh.edge_of(h);
-    return edge_length_[e] < options.short_edge_ratio * longest_beside[e];
+    return edge_length_[e] < tuning::kShortEdgeRatio * longest_beside[e];
   };
   for (std::uint32_t h = 0; h < nh; ++h) {
     HalfedgeCrossing& crossing = crossing_[h];
@@ -218,7 +218,7 @@ void IntrinsicGeometry::build(const Options& options) {
   }
 
   pseudo_source_.assign(mesh.num_vertices(), 0);
-  const double saddle = 2 * std::numbers::pi * (1 + options.saddle_angle_tolerance);
+  const double saddle = 2 * std::numbers::pi * (1 + tuning::kSaddleAngleTolerance);
   for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
     if (mesh.is_boundary_vertex(v) || angle_sum_[v] > saddle) pseudo_source_[v] = 1;
   }

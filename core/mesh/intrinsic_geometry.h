@@ -35,7 +35,7 @@ struct alignas(16) HalfedgeCrossing {
   /// twin(next(h)): the halfedge a window leaving through edge b-c enters; -1 on a boundary or
   /// when b-c is short.
   std::int32_t twin_next = -1;
-  /// Which sides of the face are short edges (IntrinsicGeometryOptions::short_edge_ratio):
+  /// Which sides of the face are short edges (tuning::kShortEdgeRatio):
   /// kShortSide (a-b, h's own), kShortPrev (c-a), kShortNext (b-c).
   std::uint32_t short_sides = 0;
   static constexpr std::uint32_t kShortSide = 1, kShortPrev = 2, kShortNext = 4;
@@ -50,9 +50,6 @@ struct IntrinsicGeometryOptions {
   /// Faces whose area is below this fraction of (mean edge length)^2 count as degenerate: their
   /// corners become pseudo-sources, so exact solvers route through them instead of unfolding.
   double degenerate_area_ratio = 1e-14;
-  /// A vertex whose angle sum exceeds 2*pi*(1 + this) is a saddle; flatter ones are not, since
-  /// a shortest path passes straight through a flat vertex and windows on both sides cover it.
-  double saddle_angle_tolerance = 1e-9;
   /// Faces whose height over their longest side is below this fraction of that side count as
   /// thin: their layouts, and the angles and windows derived from them, are good only to a
   /// few digits, and a straight path grazing along them can be lost or bent. Their corners
@@ -61,16 +58,6 @@ struct IntrinsicGeometryOptions {
   /// create more windows. The ratio is far below the faces of real scanned or modelled meshes,
   /// so that only slivers pay for it.
   double thin_face_ratio = 1e-5;
-  /// An edge shorter than this fraction of the longest side of a face it bounds is short: the
-  /// angles at its ends in that face, and so the frame of its halfedges, follow from the other
-  /// two sides' difference, known to an absolute 1e-16 of their length: the far corner of such
-  /// a layout can be far off, and distances unfolded through it shorter than the straight
-  /// line. In a face where it is short against
-  /// that face's own longest side, its layout is taken from the longest side's instead; exact
-  /// solvers stop windows at it and go on from its ends (whose faces' corners become
-  /// pseudo-sources), a detour of at most twice its length. At this ratio that detour and the
-  /// frames' error (1e-16 / ratio of the face) are both about 1e-8 of the face.
-  double short_edge_ratio = 1e-8;
 };
 
 class IntrinsicGeometry {

@@ -24,9 +24,8 @@ std::uint64_t directed_key(std::uint32_t from, std::uint32_t to) {
 void check_faces_and_positions(const std::vector<Vec3>& positions,
                                const std::vector<Triangle>& faces) {
   if (faces.empty()) {
-    throw MeshError(
-        ErrorCode::EmptyMesh,
-        "mesh has no faces (" + std::to_string(positions.size()) + " vertices, 0 triangles)");
+    throw MeshError(ErrorCode::EmptyMesh, "mesh has no faces (" + std::to_string(positions.size()) +
+                                              " vertices, 0 triangles)");
   }
   if (faces.size() > TriangleMesh::kMaxFaces) {
     throw MeshError(ErrorCode::TooLarge, "mesh has " + std::to_string(faces.size()) +

@@ -247,7 +247,7 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
                          const MeshRepairOptions& options) {
   if (faces.empty()) {
     throw MeshError(ErrorCode::EmptyMesh, "mesh has no faces (" + std::to_string(positions.size()) +
-                                     " vertices, 0 triangles): nothing to repair");
+                                              " vertices, 0 triangles): nothing to repair");
   }
   const auto nv = static_cast<std::uint32_t>(positions.size());
   RepairedMesh out;

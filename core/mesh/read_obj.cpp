@@ -24,9 +24,9 @@ std::vector<std::uint32_t> read_obj_face(const std::vector<std::string_view>& to
                             "' is not a vertex index");
     }
     if (*index == 0) {
-      throw_mesh_error(ErrorCode::VertexOutOfRange, path, line,
-                       "face " + std::to_string(face) +
-                           " uses vertex index 0; OBJ indices start at 1");
+      throw_mesh_error(
+          ErrorCode::VertexOutOfRange, path, line,
+          "face " + std::to_string(face) + " uses vertex index 0; OBJ indices start at 1");
     }
     const long long resolved =
         *index > 0 ? *index - 1 : static_cast<long long>(vertices_so_far) + *index;

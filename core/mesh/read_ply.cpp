@@ -248,8 +248,9 @@ PlyLayout find_ply_layout(const PlyHeader& header, const std::string& path) {
   }
   if (layout.faces && layout.strips) {
     throw FileError(ErrorCode::UnsupportedFormat,
-                    path + ": the PLY file has both faces and triangle strips (elements face "
-                           "and tristrips); keep one of them");
+                    path +
+                        ": the PLY file has both faces and triangle strips (elements face "
+                        "and tristrips); keep one of them");
   }
   for (const PlyElement* element : {layout.faces, layout.strips}) {
     if (element && element->count > 0 &&

@@ -242,17 +242,16 @@ void validate_metric(const TriangleMesh& mesh, const RiemannianMetric& metric,
     for (std::size_t i = 0; i < per_row; ++i) {
       if (!std::isfinite(v[i])) {
         throw InvalidInput(ErrorCode::BadMetric, row_name(metric.kind, row) + ": value " +
-                                            std::to_string(i + 1) + " of '" +
-                                            values_text(v, per_row) + "' is not finite");
+                                                     std::to_string(i + 1) + " of '" +
+                                                     values_text(v, per_row) + "' is not finite");
       }
     }
     double smallest = 0;
     switch (metric.kind) {
       case MetricKind::EdgeLengths:
         if (v[0] < 0) {
-          throw InvalidInput(ErrorCode::BadMetric,
-                             "edge " + std::to_string(row) + " has the negative length " +
-                                 number(v[0]));
+          throw InvalidInput(ErrorCode::BadMetric, "edge " + std::to_string(row) +
+                                                       " has the negative length " + number(v[0]));
         }
         break;
       case MetricKind::FaceTensor2D:
@@ -269,9 +268,8 @@ void validate_metric(const TriangleMesh& mesh, const RiemannianMetric& metric,
           throw InvalidInput(ErrorCode::NotPositiveDefinite,
                              "face " + std::to_string(row) +
                                  ": the 3x3 tensor (m_xx m_xy m_xz m_yy m_yz m_zz) " +
-                                 values_text(v, 6) +
-                                 " is not positive definite (Cholesky pivot " + number(smallest) +
-                                 ")");
+                                 values_text(v, 6) + " is not positive definite (Cholesky pivot " +
+                                 number(smallest) + ")");
         }
         break;
     }

@@ -14,29 +14,28 @@ void SurfacePoint::validate(const TriangleMesh& mesh) const {
   switch (kind) {
     case Kind::Vertex:
       if (id >= mesh.num_vertices()) {
-        throw InvalidInput(ErrorCode::VertexOutOfRange, "vertex " + std::to_string(id) +
-                                                   " is out of range (mesh has " +
-                                                   std::to_string(mesh.num_vertices()) +
-                                                   " vertices)");
+        throw InvalidInput(ErrorCode::VertexOutOfRange,
+                           "vertex " + std::to_string(id) + " is out of range (mesh has " +
+                               std::to_string(mesh.num_vertices()) + " vertices)");
       }
       return;
     case Kind::Edge:
       if (id >= mesh.num_edges()) {
-        throw InvalidInput(ErrorCode::EdgeOutOfRange, "edge " + std::to_string(id) +
-                                                 " is out of range (mesh has " +
-                                                 std::to_string(mesh.num_edges()) + " edges)");
+        throw InvalidInput(ErrorCode::EdgeOutOfRange,
+                           "edge " + std::to_string(id) + " is out of range (mesh has " +
+                               std::to_string(mesh.num_edges()) + " edges)");
       }
       if (!std::isfinite(t) || t < 0 || t > 1) {
         throw InvalidInput(ErrorCode::BadEdgeParameter, "edge parameter " + std::to_string(t) +
-                                                   " of edge " + std::to_string(id) +
-                                                   " must be a finite number in [0, 1]");
+                                                            " of edge " + std::to_string(id) +
+                                                            " must be a finite number in [0, 1]");
       }
       return;
     case Kind::Face: {
       if (id >= mesh.num_faces()) {
-        throw InvalidInput(ErrorCode::FaceOutOfRange, "face " + std::to_string(id) +
-                                                 " is out of range (mesh has " +
-                                                 std::to_string(mesh.num_faces()) + " faces)");
+        throw InvalidInput(ErrorCode::FaceOutOfRange,
+                           "face " + std::to_string(id) + " is out of range (mesh has " +
+                               std::to_string(mesh.num_faces()) + " faces)");
       }
       double sum = 0;
       for (double b : bary) {
@@ -49,8 +48,8 @@ void SurfacePoint::validate(const TriangleMesh& mesh) const {
       }
       if (!(std::abs(sum - 1) <= kBarycentricSumTolerance)) {
         throw InvalidInput(ErrorCode::BadBarycentric, "barycentric coordinates of " + to_string() +
-                                                 " sum to " + std::to_string(sum) +
-                                                 ", not 1");
+                                                          " sum to " + std::to_string(sum) +
+                                                          ", not 1");
       }
       return;
     }
@@ -118,7 +117,7 @@ namespace {
 
 [[noreturn]] void bad_syntax(const std::string& text, const std::string& why) {
   throw InvalidInput(ErrorCode::BadPointSyntax, "bad point '" + text + "': " + why +
-                                           " (expected v:ID, e:ID:t or f:ID:b0:b1:b2)");
+                                                    " (expected v:ID, e:ID:t or f:ID:b0:b1:b2)");
 }
 
 std::uint32_t parse_id(const std::string& text, const std::string& field) {

@@ -149,8 +149,7 @@ QueryEngine::LinkSolveRadius QueryEngine::link_solve_radius(const SurfacePoint& 
 // link_solve_vertices-th nearest of those within r.radius (at least r.corners), or r.radius.
 // It depends on p alone: a solve that went farther (out to rho) gives the same radius.
 double QueryEngine::nearest_vertices_radius(const ExactGeodesicSolver& solver,
-                                              const LinkSolveRadius& r,
-                                              QueryScratch::Impl& s) const {
+                                            const LinkSolveRadius& r, QueryScratch::Impl& s) const {
   const std::uint32_t n = tuning_.link_solve_vertices;
   if (n == 0) return r.radius;
   std::vector<double>& near = s.link_distances;
@@ -165,8 +164,7 @@ double QueryEngine::nearest_vertices_radius(const ExactGeodesicSolver& solver,
 }
 
 bool QueryEngine::link_through_covers(const ExactGeodesicSolver& solver, double radius,
-                                        QueryScratch::Impl& s, Links& out,
-                                        const Links* base) const {
+                                      QueryScratch::Impl& s, Links& out, const Links* base) const {
   if (graph_.cover_sample.empty()) return false;
   out.samples.clear();
   out.via.clear();
@@ -217,7 +215,7 @@ bool QueryEngine::may_be_within_link_radius(const SurfacePoint& s, const Surface
 }
 
 void QueryEngine::solve_within_link_radius(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                             const QueryInterrupt* interrupt) const {
+                                           const QueryInterrupt* interrupt) const {
   ExactGeodesicOptions bounded;
   bounded.max_distance = link_radius_;
   bounded.interrupt = interrupt;
@@ -231,8 +229,8 @@ void QueryEngine::solve_within_link_radius(const SurfacePoint& p, ExactGeodesicS
 // rather than a disk. Returns whether, when `to` lies beyond the radius, every point within the
 // radius is final (no goal), so that the solve can link p.
 bool QueryEngine::solve_towards(const SurfacePoint& p, const SurfacePoint& to, double radius,
-                                  ExactGeodesicSolver& solver,
-                                  const QueryInterrupt* interrupt) const {
+                                ExactGeodesicSolver& solver,
+                                const QueryInterrupt* interrupt) const {
   ExactGeodesicOptions bounded;
   bounded.max_distance = radius;
   bounded.stop_after_targets = 1;
@@ -244,13 +242,12 @@ bool QueryEngine::solve_towards(const SurfacePoint& p, const SurfacePoint& to, d
   return !bounded.goal;
 }
 
-
 // A bounded solve settles a little beyond its radius (out to the nearest window it did not
 // store), by an amount that rounding decides: exact answers from it stop at rho, so that
 // fields, matrices and point-to-point queries take the same ones.
 double QueryEngine::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                    QueryScratch::Impl& s, Links& out,
-                                    bool solved_to_link_radius) const {
+                                  QueryScratch::Impl& s, Links& out,
+                                  bool solved_to_link_radius) const {
   out.region.clear();
   const LinkSolveRadius radius = link_solve_radius(p);
   if (radius.radius < link_radius_ && !graph_.cover_sample.empty()) {
@@ -303,13 +300,13 @@ double QueryEngine::link_by_solve(const SurfacePoint& p, ExactGeodesicSolver& so
 }
 
 double QueryEngine::link_solved(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                                  QueryScratch::Impl& s, Links& out) const {
+                                QueryScratch::Impl& s, Links& out) const {
   return link_by_covers(p, out) ? link_radius_ : link_by_solve(p, solver, s, out, true);
 }
 
 std::vector<PathPoint> QueryEngine::exact_piece(const SurfacePoint& from, const SurfacePoint& to,
-                                                  double length, ExactGeodesicSolver& solver,
-                                                  const QueryInterrupt* interrupt) const {
+                                                double length, ExactGeodesicSolver& solver,
+                                                const QueryInterrupt* interrupt) const {
   solve_towards(from, to, length * (1 + tuning::kRelativeSlack) + 1e-300, solver, interrupt);
   return solver.path_to(to).points;
 }

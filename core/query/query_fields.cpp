@@ -19,7 +19,7 @@ namespace geoprox::detail {
 // The exact values a field takes from `solver`: every vertex it settled within `exact_within`
 // (and max_distance).
 void QueryEngine::add_field_region(const ExactGeodesicSolver& solver, double exact_within,
-                                     double max_distance, Links& out) const {
+                                   double max_distance, Links& out) const {
   for (std::uint32_t v : solver.touched_vertices()) {
     const double d = solver.distance(v);
     if (d <= max_distance && d <= exact_within) out.region.emplace_back(v, d);
@@ -33,7 +33,7 @@ void QueryEngine::add_field_region(const ExactGeodesicSolver& solver, double exa
 // a point are all inside (a cover row or a link solve's covers reach rho), except for a point
 // with no sample within rho, which is linked as point-to-point queries link it.
 void QueryEngine::link_field_disks(std::span<const SurfacePoint> sources, double radius,
-                                     double max_distance, QueryScratch::Impl& w) const {
+                                   double max_distance, QueryScratch::Impl& w) const {
   w.field_sources.clear();
   for (const SurfacePoint& p : sources) w.field_sources.push_back({p, 0.0});
   ExactGeodesicOptions bounded;
@@ -74,7 +74,7 @@ void QueryEngine::link_field_disks(std::span<const SurfacePoint> sources, double
 }
 
 DistanceField QueryEngine::field(std::span<const SurfacePoint> sources, QueryScratch& scratch,
-                                   const DistanceFieldOptions& options) const {
+                                 const DistanceFieldOptions& options) const {
   if (sources.empty()) throw InvalidInput(ErrorCode::NoSources, "a distance field needs a source");
   if (graph_.cover_sample.empty()) {
     throw InvalidInput(ErrorCode::NoCoverTable,
@@ -148,8 +148,8 @@ DistanceField QueryEngine::field(std::span<const SurfacePoint> sources, QueryScr
 // Matrix: every point is linked once; one graph search per source serves all targets.
 
 std::vector<double> QueryEngine::matrix(std::span<const SurfacePoint> sources,
-                                          std::span<const SurfacePoint> targets,
-                                          QueryScratch& scratch) const {
+                                        std::span<const SurfacePoint> targets,
+                                        QueryScratch& scratch) const {
   for (const SurfacePoint& p : sources) p.validate(*mesh_);
   for (const SurfacePoint& p : targets) p.validate(*mesh_);
   QueryScratch::Impl& w = *scratch.impl_;

@@ -18,8 +18,8 @@ namespace geoprox::detail {
 // links are not needed), else kInfinity. Exactness is decided by one solve out to rho from s,
 // skipped when the straight line already says the points are farther apart. `solved_s` /
 // `solved_t` say that an exact answer comes from solver_s / solver_t.
-double QueryEngine::link_pair(const SurfacePoint& s, const SurfacePoint& t,
-                                QueryScratch::Impl& w, bool& solved_s, bool& solved_t) const {
+double QueryEngine::link_pair(const SurfacePoint& s, const SurfacePoint& t, QueryScratch::Impl& w,
+                              bool& solved_s, bool& solved_t) const {
   solved_s = solved_t = false;
   if (may_be_within_link_radius(s, t)) {
     // Stopped once t is settled: a pair closer than rho needs only the disk out to its own
@@ -59,7 +59,7 @@ double QueryEngine::link_pair(const SurfacePoint& s, const SurfacePoint& t,
 // that work, as such regions border on denser ones. A face or edge point's disk also reaches
 // as far as its link solve would without the vertex limit.
 void QueryEngine::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                               const QueryInterrupt* interrupt) const {
+                             const QueryInterrupt* interrupt) const {
   const double scale = sparseness(p, tuning::kSparseFaceForWork);
   ExactGeodesicOptions bounded;
   bounded.min_distance = tuning::kNearRadius * link_radius_;
@@ -81,7 +81,7 @@ void QueryEngine::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
 // disk (solver holds that solve, solve_near()); keeps the disk's distances for joining with the
 // other point's disk.
 void QueryEngine::wide_links(const ExactGeodesicSolver& solver, QueryScratch::Impl& s,
-                               const Links& narrow, Links& out) const {
+                             const Links& narrow, Links& out) const {
   const double radius = solver.radius_reached();
   if (!link_through_covers(solver, radius, s, out, &narrow)) {  // no cover table
     out.samples = narrow.samples;
@@ -101,9 +101,10 @@ void QueryEngine::wide_links(const ExactGeodesicSolver& solver, QueryScratch::Im
 // (among large triangles the best vertex can be far off it): d_a + d_b along an edge is smooth
 // and has one minimum near the crossing, found by golden-section search. An upper bound of the
 // distance (a real path through that point) and symmetric in a, b: the same sums throughout.
+// Over 100 lines: the three stages share the best point so far and the stamps of one scan.
 double QueryEngine::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolver& a,
-                                 const Links& a_disk, const ExactGeodesicSolver& b,
-                                 const Links& b_disk, SurfacePoint& at) const {
+                               const Links& a_disk, const ExactGeodesicSolver& b,
+                               const Links& b_disk, SurfacePoint& at) const {
   if (++s.join_generation == 0) {
     std::fill(s.join_stamp.begin(), s.join_stamp.end(), 0);
     std::fill(s.join_edge_stamp.begin(), s.join_edge_stamp.end(), 0);
@@ -217,7 +218,7 @@ double QueryEngine::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolver&
 // positions are set, as answer() leaves them for its search). Leaves solver_s /
 // solver_t holding the solves from s / t and links_s / links_t the wide links, for paths.
 PairAnswer QueryEngine::answer_near(const SurfacePoint& s, const SurfacePoint& t,
-                                      QueryScratch::Impl& w) const {
+                                    QueryScratch::Impl& w) const {
   // Afresh for s, as for t (the same disk either way). The two solves are most of a near
   // pair's time and independent: a server with an idle thread runs them at once.
   const auto near_s = [&] { solve_near(s, w.solver_s, w.interrupt); };
@@ -239,8 +240,8 @@ PairAnswer QueryEngine::answer_near(const SurfacePoint& s, const SurfacePoint& t
 // a_wide / b_wide) and a search from their wide links, bounded by the join. The pair's
 // positions must already be in s.source_position / s.target_position (the search's potential).
 PairAnswer QueryEngine::join_or_search(QueryScratch::Impl& s, const ExactGeodesicSolver& a,
-                                         const Links& a_wide, const ExactGeodesicSolver& b,
-                                         const Links& b_wide) const {
+                                       const Links& a_wide, const ExactGeodesicSolver& b,
+                                       const Links& b_wide) const {
   PairAnswer answer;
   answer.distance = join_disks(s, a, a_wide, b, b_wide, answer.join_point);
   answer.from = PairAnswer::From::Join;
@@ -261,7 +262,7 @@ double QueryEngine::sparseness(const SurfacePoint& p, double knee) const {
 // Near pairs: the graph's answer (an upper bound of the distance, and symmetric) under
 // refine_within rho, or farther for a point among large triangles, whose graph paths bend more.
 bool QueryEngine::refines(const SurfacePoint& s, const SurfacePoint& t,
-                            double graph_distance) const {
+                          double graph_distance) const {
   return options_.refine_within > 0 &&
          graph_distance <= options_.refine_within * link_radius_ *
                                std::max(sparseness(s, tuning::kSparseFaceForRefinement),
@@ -269,7 +270,7 @@ bool QueryEngine::refines(const SurfacePoint& s, const SurfacePoint& t,
 }
 
 PairAnswer QueryEngine::answer(const SurfacePoint& s, const SurfacePoint& t,
-                                 QueryScratch::Impl& w) const {
+                               QueryScratch::Impl& w) const {
   PairAnswer a;
   bool solved_s = false, solved_t = false;
   a.distance = link_pair(s, t, w, solved_s, solved_t);
@@ -310,8 +311,8 @@ bool QueryEngine::solves_exactly(double graph_distance) const {
 // pairs, or should the solve not reach t (it always does: the bound is a path's length, plus
 // rounding's share).
 double QueryEngine::solve_exactly(const SurfacePoint& s, const SurfacePoint& t,
-                                    double graph_distance, ExactGeodesicSolver& solver,
-                                    const QueryInterrupt* interrupt) const {
+                                  double graph_distance, ExactGeodesicSolver& solver,
+                                  const QueryInterrupt* interrupt) const {
   if (!solves_exactly(graph_distance)) return kInfinity;
   solve_towards(s, t, graph_distance * (1 + tuning::kRelativeSlack), solver, interrupt);
   return solver.settled_targets().empty() ? kInfinity : solver.settled_target_distances()[0];
@@ -320,9 +321,9 @@ double QueryEngine::solve_exactly(const SurfacePoint& s, const SurfacePoint& t,
 // The solver that holds the exact answer for (s, t) afterwards, with a settled target: solver_s
 // (from s, towards t) or, when the query solved the pair from t, solver_t.
 const ExactGeodesicSolver& QueryEngine::solve_pair_exactly(const SurfacePoint& s,
-                                                             const SurfacePoint& t,
-                                                             QueryScratch::Impl& w,
-                                                             double& distance) const {
+                                                           const SurfacePoint& t,
+                                                           QueryScratch::Impl& w,
+                                                           double& distance) const {
   // The graph's answer bounds the solve, which makes far pairs cheap. Without the
   // bound (another metric), or should the bounded solve not reach t (a bug in the graph), the
   // solve runs unbounded.
@@ -347,7 +348,7 @@ const ExactGeodesicSolver& QueryEngine::solve_pair_exactly(const SurfacePoint& s
 }
 
 DistanceResult QueryEngine::exact_distance(const SurfacePoint& s, const SurfacePoint& t,
-                                             QueryScratch& scratch) const {
+                                           QueryScratch& scratch) const {
   s.validate(*mesh_);
   t.validate(*mesh_);
   DistanceResult result;
@@ -357,7 +358,7 @@ DistanceResult QueryEngine::exact_distance(const SurfacePoint& s, const SurfaceP
 }
 
 PathResult QueryEngine::exact_path(const SurfacePoint& s, const SurfacePoint& t,
-                                     QueryScratch& scratch) const {
+                                   QueryScratch& scratch) const {
   s.validate(*mesh_);
   t.validate(*mesh_);
   QueryScratch::Impl& w = *scratch.impl_;
@@ -374,7 +375,7 @@ PathResult QueryEngine::exact_path(const SurfacePoint& s, const SurfacePoint& t,
 }
 
 DistanceResult QueryEngine::distance(const SurfacePoint& s, const SurfacePoint& t,
-                                       QueryScratch& scratch) const {
+                                     QueryScratch& scratch) const {
   s.validate(*mesh_);
   t.validate(*mesh_);
   const PairAnswer a = answer(s, t, *scratch.impl_);

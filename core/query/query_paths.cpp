@@ -45,8 +45,8 @@ bool stored_direction(const GraphDirection& d, FaceDirection& out) {
 }  // namespace
 
 void QueryEngine::append_segment(QueryScratch::Impl& s, std::uint32_t from_sample,
-                                   std::uint32_t to_sample, std::uint32_t edge,
-                                   PathResult& out) const {
+                                 std::uint32_t to_sample, std::uint32_t edge,
+                                 PathResult& out) const {
   // The edge runs from one of the two samples to the other; orient it from `a` to `b`.
   const std::uint32_t a = graph_.edge_target[edge] == to_sample ? from_sample : to_sample;
   const std::uint32_t b = a == from_sample ? to_sample : from_sample;
@@ -143,8 +143,8 @@ void QueryEngine::append_segment(QueryScratch::Impl& s, std::uint32_t from_sampl
 // entry), else straight to the sample. Its length is the link's distance (the cover table holds
 // floats: to about 1e-7 relative).
 std::vector<PathPoint> QueryEngine::link_piece(const SurfacePoint& p, const Links& links,
-                                                 std::uint32_t sample, QueryScratch::Impl& s,
-                                                 ExactGeodesicSolver& solver) const {
+                                               std::uint32_t sample, QueryScratch::Impl& s,
+                                               ExactGeodesicSolver& solver) const {
   std::size_t k = 0;
   while (k < links.samples.size() && links.samples[k].first != sample) ++k;
   GEOPROX_ASSERT(k < links.samples.size(), "path through a sample that is not linked");
@@ -166,7 +166,7 @@ std::vector<PathPoint> QueryEngine::link_piece(const SurfacePoint& p, const Link
 }
 
 PathResult QueryEngine::path(const SurfacePoint& s, const SurfacePoint& t,
-                               QueryScratch& scratch) const {
+                             QueryScratch& scratch) const {
   s.validate(*mesh_);
   t.validate(*mesh_);
   QueryScratch::Impl& w = *scratch.impl_;

@@ -16,8 +16,7 @@ namespace geoprox::detail {
 // does not improve on it) and the sample where the two halves meet (-1 cast: none).
 
 double QueryEngine::search(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,
-                             double upper_bound, std::uint32_t& meet,
-                             std::uint32_t& settled) const {
+                           double upper_bound, std::uint32_t& meet, std::uint32_t& settled) const {
   s.new_search();
   meet = UINT32_MAX;
   settled = 0;
@@ -112,8 +111,8 @@ bool settle_and_relax(QueryScratch::Impl& s, const ProximityGraphView& graph, co
 }  // namespace
 
 double QueryEngine::search_bidirectional(QueryScratch::Impl& s, const Links& from_s,
-                                           const Links& from_t, double best,
-                                           std::uint32_t& meet, std::uint32_t& settled) const {
+                                         const Links& from_t, double best, std::uint32_t& meet,
+                                         std::uint32_t& settled) const {
   Meeting m{best, meet};
   auto check = [&](std::uint32_t i) { m.check(s, i); };
   // Goal direction (bidirectional A* with average potentials, Ikeda et al. 1994): when the
@@ -153,9 +152,8 @@ double QueryEngine::search_bidirectional(QueryScratch::Impl& s, const Links& fro
 }
 
 double QueryEngine::search_meet_in_the_middle(QueryScratch::Impl& s, const Links& from_s,
-                                                const Links& from_t, double best,
-                                                std::uint32_t& meet,
-                                                std::uint32_t& settled) const {
+                                              const Links& from_t, double best, std::uint32_t& meet,
+                                              std::uint32_t& settled) const {
   // R of the augmented graph: its longest edge, links included.
   const double R = std::max({graph_.longest_edge, from_s.longest, from_t.longest});
   Meeting m{best, meet};
@@ -179,9 +177,9 @@ double QueryEngine::search_meet_in_the_middle(QueryScratch::Impl& s, const Links
   return m.best;
 }
 
-double QueryEngine::search_dijkstra(QueryScratch::Impl& s, const Links& from_s,
-                                      const Links& from_t, double best, std::uint32_t& meet,
-                                      std::uint32_t& settled) const {
+double QueryEngine::search_dijkstra(QueryScratch::Impl& s, const Links& from_s, const Links& from_t,
+                                    double best, std::uint32_t& meet,
+                                    std::uint32_t& settled) const {
   // t is one more node, reached from each of its linked samples: side 1 holds those link
   // lengths and is never propagated.
   Meeting m{best, meet};
@@ -197,9 +195,8 @@ double QueryEngine::search_dijkstra(QueryScratch::Impl& s, const Links& from_s,
   return m.best;
 }
 
-void QueryEngine::graph_distances_from(QueryScratch::Impl& s,
-                                         std::span<const Links* const> sources,
-                                         double max_distance) const {
+void QueryEngine::graph_distances_from(QueryScratch::Impl& s, std::span<const Links* const> sources,
+                                       double max_distance) const {
   s.new_search();
   for (std::uint32_t k = 0; k < sources.size(); ++k) {
     for (const auto& [i, d] : sources[k]->samples) {

@@ -2,7 +2,7 @@
 # Result files people can look at (issue 6, section 2), on data/meshes/spot.obj:
 #  - `field --out F.ply`: header, counts, geometry and faces as in spot.obj, distances equal to
 #    the text output (to float precision), NaN and grey where the text says inf, viridis ends;
-#    the file loads back through OpenMesh (`geoprox info`).
+#    the file loads back (`geoprox info`).
 #  - `path` and `path --out P.obj`: starts at s, ends at t, length equal to the distance.
 #  - `render`: a PNG of the requested size, many colours, iso-lines and the red path.
 #  - errors: one line, the documented exit code, nothing written.
