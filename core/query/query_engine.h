@@ -67,9 +67,10 @@ struct HeapEntry {
   std::uint32_t side;  // 0: from s, 1: from t (meet-in-the-middle shares one heap)
 };
 
-inline constexpr std::int32_t kFromQueryPoint = -1;  // parent of a sample linked directly
-inline constexpr std::uint32_t kDirect =
-    UINT32_MAX;  // QueryLinks::via of a link not through a vertex
+/// Parent of a sample linked directly to the query point.
+inline constexpr std::int32_t kFromQueryPoint = -1;
+/// QueryLinks::via of a link not through a vertex.
+inline constexpr std::uint32_t kDirect = UINT32_MAX;
 
 // Links of one query point: its nearest samples with exact distances, and what its local solve
 // found out about the other query point(s).
@@ -104,10 +105,11 @@ inline double exact_up_to(double d, double exact_within) {
   return d <= exact_within ? d : kInfinity;
 }
 
+/// The error of a pair in different connected components.
 inline Unreachable unreachable(const SurfacePoint& s, const SurfacePoint& t) {
-  return Unreachable(ErrorCode::Unreachable, "no path between " + s.to_string() + " and " +
-                                                 t.to_string() +
-                                                 ": they lie in different connected components");
+  return Unreachable(ErrorCode::Unreachable,
+                     "no path between " + s.to_string() + " and " + t.to_string() +
+                         ": they lie in different connected components");
 }
 
 class QueryEngine {
