@@ -15,6 +15,9 @@
 namespace geoprox {
 namespace {
 
+using test_support::shipped_mesh_file;
+using test_support::test_data_file;
+
 // OpenMesh's readers, an independent implementation, read the shipped meshes and the small
 // files of every format as geoprox does: the same vertices in the same order (to a float's last
 // bit: OpenMesh holds floats) and the same faces (up to where each starts its corner cycle).
