@@ -5,9 +5,17 @@
 
 namespace geoprox {
 
+MeshData::MeshData(LoadedMeshFile file)
+    : mesh(std::move(file.mesh)),
+      geometry(mesh),
+      face_polygon(std::move(file.face_polygon)),
+      polygons(file.polygons),
+      repair(file.repair) {}
+
 std::shared_ptr<MeshData> MeshData::load(const std::string& mesh_path,
-                                         const std::string& metric_path) {
-  auto data = std::make_shared<MeshData>(load_mesh(mesh_path));
+                                         const std::string& metric_path,
+                                         const MeshLoadOptions& load_options) {
+  auto data = std::make_shared<MeshData>(load_mesh_file(mesh_path, load_options));
   if (!metric_path.empty()) data->geometry = load_geometry(data->mesh, metric_path);
   return data;
 }

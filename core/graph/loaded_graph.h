@@ -8,11 +8,13 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "core/graph/graph_file.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
 #include "core/query/geodesic_query.h"
 
 namespace geoprox {
@@ -21,16 +23,25 @@ namespace geoprox {
 /// held by shared_ptr (a reloaded graph keeps the mesh it was verified against).
 struct MeshData {
   /// The mesh with its own edge lengths.
-  explicit MeshData(TriangleMesh m) : mesh(std::move(m)), geometry(mesh) {}
-  /// Loads the mesh and its geometry: the metric of side file `metric_path`, or the mesh's own
-  /// lengths when it is empty. Throws what load_mesh and load_geometry throw.
+  explicit MeshData(TriangleMesh m)
+      : mesh(std::move(m)), geometry(mesh), polygons(mesh.num_faces()) {}
+  /// A loaded file's mesh with its own edge lengths, its polygons and repair report.
+  explicit MeshData(LoadedMeshFile file);
+  /// Loads the mesh (load_mesh_file: polygons triangulated, repaired if `load_options` say so)
+  /// and its geometry: the metric of side file `metric_path`, or the mesh's own lengths when it
+  /// is empty. Throws what load_mesh_file and load_geometry throw.
   static std::shared_ptr<MeshData> load(const std::string& mesh_path,
-                                        const std::string& metric_path = {});
+                                        const std::string& metric_path = {},
+                                        const MeshLoadOptions& load_options = {});
   MeshData(const MeshData&) = delete;
   MeshData& operator=(const MeshData&) = delete;
 
   TriangleMesh mesh;
   IntrinsicGeometry geometry;
+  /// Per face: the file's polygon (empty: the faces are the file's); see LoadedMeshFile.
+  std::vector<std::uint32_t> face_polygon;
+  std::size_t polygons = 0;  ///< face records in the file (mesh.num_faces() when built in code)
+  std::optional<MeshRepairReport> repair;  ///< when loaded with repair
 };
 
 struct LoadedGraph {

@@ -85,16 +85,51 @@ MeshSoup load_mesh_soup(const std::string& path) {
     throw MeshError(ErrorCode::EmptyMesh, path + ": the file is empty (0 bytes, no faces)");
   }
   FileScan scan = scan_file(*format, text, path);
-  return {std::move(scan.positions), std::move(scan.faces)};
+  MeshSoup soup;
+  soup.positions = std::move(scan.positions);
+  soup.faces = std::move(scan.faces);
+  soup.polygons = soup.faces.size();
+  return soup;
 }
 
-TriangleMesh load_mesh(const std::string& path) {
-  MeshSoup soup = load_mesh_soup(path);
+namespace {
+
+TriangleMesh make_mesh(const std::string& path, std::vector<Vec3> positions,
+                       std::vector<Triangle> faces) {
   try {
-    return TriangleMesh(std::move(soup.positions), std::move(soup.faces));
+    return TriangleMesh(std::move(positions), std::move(faces));
   } catch (const MeshError& e) {
     throw MeshError(e.code(), path + ": " + e.what());
   }
+}
+
+}  // namespace
+
+TriangleMesh load_mesh(const std::string& path) {
+  MeshSoup soup = load_mesh_soup(path);
+  return make_mesh(path, std::move(soup.positions), std::move(soup.faces));
+}
+
+LoadedMeshFile load_mesh_file(const std::string& path, const MeshLoadOptions& options) {
+  MeshSoup soup = load_mesh_soup(path);
+  if (!options.repair) {
+    return {make_mesh(path, std::move(soup.positions), std::move(soup.faces)),
+            std::move(soup.face_polygon), soup.polygons, std::nullopt};
+  }
+  RepairedMesh repaired = [&] {
+    try {
+      return repair_mesh(soup.positions, soup.faces);
+    } catch (const MeshError& e) {
+      throw MeshError(e.code(), path + ": " + e.what());
+    }
+  }();
+  std::vector<std::uint32_t> face_polygon;
+  if (!soup.face_polygon.empty()) {
+    face_polygon.reserve(repaired.faces.size());
+    for (const std::uint32_t f : repaired.source_face) face_polygon.push_back(soup.face_polygon[f]);
+  }
+  return {make_mesh(path, std::move(repaired.positions), std::move(repaired.faces)),
+          std::move(face_polygon), soup.polygons, repaired.report};
 }
 
 }  // namespace geoprox

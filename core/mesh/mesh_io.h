@@ -28,10 +28,13 @@
 // Thread safety: the functions share no state; any number of loads may run at once.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/mesh/mesh.h"
+#include "core/mesh/mesh_repair.h"
 
 namespace geoprox {
 
@@ -44,7 +47,40 @@ TriangleMesh load_mesh(const std::string& path);
 struct MeshSoup {
   std::vector<Vec3> positions;
   std::vector<Triangle> faces;
+  /// Per triangle: the file's polygon (face record, in file order) it is part of. Empty when
+  /// every face record of the file is a triangle: triangle ids are then the file's face ids.
+  std::vector<std::uint32_t> face_polygon;
+  /// Face records in the file (polygons of any corner count).
+  std::size_t polygons = 0;
 };
 MeshSoup load_mesh_soup(const std::string& path);
+
+struct MeshLoadOptions {
+  /// Repair what TriangleMesh refuses (core/mesh/mesh_repair.h, the rules of `geoprox repair`)
+  /// instead of refusing it. Default off: a mesh that is not an oriented manifold is an error.
+  bool repair = false;
+};
+
+/// A mesh file as geoprox serves it: the triangles, how they map to the file's polygons, and
+/// what repair changed.
+struct LoadedMeshFile {
+  TriangleMesh mesh;
+  /// Per face of `mesh`: the file's polygon it is part of (MeshSoup::face_polygon after repair
+  /// dropped faces); empty when the face ids are the file's.
+  std::vector<std::uint32_t> face_polygon;
+  std::size_t polygons = 0;  ///< face records in the file
+  /// What repair changed, when loaded with options.repair (report.unchanged() if nothing).
+  std::optional<MeshRepairReport> repair;
+
+  /// The file's polygon of face f (f itself when the file's faces are all triangles).
+  std::uint32_t polygon_of(std::uint32_t f) const {
+    return face_polygon.empty() ? f : face_polygon[f];
+  }
+};
+
+/// Reads, triangulates and (when asked) repairs the mesh file at `path`. Throws what
+/// load_mesh throws; with repair, only what repair cannot fix (EmptyMesh, non-finite
+/// coordinates) and file errors.
+LoadedMeshFile load_mesh_file(const std::string& path, const MeshLoadOptions& options = {});
 
 }  // namespace geoprox

@@ -127,7 +127,9 @@ TEST(MeshRepair, CutsAnEdgeWithThreeFaces) {
 
 TEST(MeshRepair, DropsRepeatedAndDegenerateFaces) {
   const MeshSoup soup{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}},
-                      {{0, 1, 2}, {0, 2, 3}, {1, 2, 0}, {0, 0, 3}, {2, 1, 0}, {3, 2, 0}}};
+                      {{0, 1, 2}, {0, 2, 3}, {1, 2, 0}, {0, 0, 3}, {2, 1, 0}, {3, 2, 0}},
+                      {},
+                      6};
   const RepairedMesh r = repair_and_check(soup);
   EXPECT_EQ(r.report.degenerate_faces_dropped, 1u);  // (0 0 3)
   EXPECT_EQ(r.report.duplicate_faces_dropped, 3u);   // a rotation and two turned copies
@@ -139,7 +141,9 @@ TEST(MeshRepair, KeepsAClosedSurfaceOfTwoFaces) {
   // A triangle and its reverse, alone on their edges: a closed surface (a flat pillow), which
   // loads. Beside a square it stays; the same reverse laid on the square's first face goes.
   const MeshSoup soup{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {5, 0, 0}, {6, 0, 0}, {5, 1, 0}},
-                      {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 5}}};
+                      {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 5}},
+                      {},
+                      4};
   EXPECT_NO_THROW(TriangleMesh(soup.positions, soup.faces));
   const RepairedMesh pillow = repair_and_check(soup);
   EXPECT_TRUE(pillow.report.unchanged());
