@@ -10,6 +10,7 @@
 #include "core/base/errors.h"
 #include "core/mesh/mesh_io.h"
 #include "core/graph/proximity_graph.h"
+#include "core/graph/refined_surface.h"
 #include "core/mesh/riemannian_metric.h"
 
 namespace geoprox::server {
@@ -347,6 +348,12 @@ void Registry::run_job(const Job& job) {
                 .count();
         spdlog::info("mesh {}: ready, graph {} mapped (version {}, {:.1f} ms)", entry->id(),
                      entry->graph_path().string(), loaded->version(), ms);
+        if (const auto from = loaded->file().refined_from()) {
+          spdlog::info("mesh {}: the graph is over a refinement to {} vertices, {} faces "
+                       "(edges <= {:.6g}); queries stay in the mesh's ids",
+                       entry->id(), loaded->file().counts().vertices,
+                       loaded->file().counts().faces, from->max_edge_length);
+        }
         warn_if_sparse(entry->id(), loaded->file().view());
         install(entry, std::move(loaded));
         return;
@@ -393,6 +400,17 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
     metadata.source_mesh = entry->mesh_path().filename().string();
     write_graph_file(path.string(), data->mesh, data->geometry, graph, metadata);
     stats = graph.stats;
+    if (graph.refined) {
+      spdlog::info(
+          "mesh {}: the first build left {} faces ({:.3g}% of the area) with no sample within "
+          "the link radius; built on a refinement to {} vertices, {} faces (edges <= {:.6g}) "
+          "instead ({:.2f} s first build, {:.2f} s refining); queries stay in the mesh's ids",
+          entry->id(), graph.stats.unrefined_faces_beyond_link,
+          100 * graph.stats.unrefined_area_fraction_beyond_link,
+          graph.refined->mesh().num_vertices(), graph.refined->mesh().num_faces(),
+          graph.refined->max_edge_length(), graph.stats.unrefined_build_seconds,
+          graph.stats.refinement_seconds);
+    }
   }
   MappedGraphFile file = MappedGraphFile::open(entry->graph_path().string());
   file.verify_mesh(data->mesh, data->geometry);

@@ -17,6 +17,7 @@
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh_io.h"
 #include "core/graph/proximity_graph.h"
+#include "core/graph/refined_surface.h"
 #include "core/mesh/riemannian_metric.h"
 
 namespace geoprox::cli {
@@ -35,6 +36,7 @@ struct BuildArgs {
   std::string sampling = "auto";
   std::string export_text;
   std::string metric;  ///< Riemannian metric side file; empty: the mesh's own lengths
+  bool no_refine = false;  ///< --no-refine: keep the first build even if it leaves gaps
   bool quiet = false;
 };
 
@@ -112,6 +114,7 @@ void run_build(const BuildArgs& args) {
   options.candidate_vertices = args.candidate_vertices;
   options.link_samples = args.link_samples;
   options.threads = args.threads;
+  options.refine_long_faces = !args.no_refine;
   if (args.sampling == "fmm") {
     options.sampling = SamplingMethod::FastMarching;
   } else if (args.sampling == "exact") {
@@ -145,7 +148,9 @@ void run_build(const BuildArgs& args) {
   write_graph_file(args.out, mesh, geometry, graph, metadata);
   if (!args.export_text.empty()) {
     std::ostringstream text;
-    export_paper_text(text, mesh, geometry, graph.view());
+    // The text format names samples by position: those of the mesh the graph is over.
+    export_paper_text(text, graph.refined ? graph.refined->mesh() : mesh,
+                      graph.refined ? graph.refined->geometry() : geometry, graph.view());
     write_file_atomically(args.export_text, text.str());
   }
   const double write_seconds =
@@ -171,12 +176,26 @@ void run_build(const BuildArgs& args) {
   add("r covering      %.6g (vertices %.6g; farthest %s)\n", view.covering_radius,
       graph.stats.vertex_covering_radius, graph.stats.largest_empty_disk.to_string().c_str());
   add("link radius     %.6g\n", view.link_radius);
+  if (graph.refined) {
+    const TriangleMesh& refined = graph.refined->mesh();
+    add("refined         to %zu vertices, %zu faces (edges <= %.6g): the first build left "
+        "%zu faces (%.3g%% of the area) beyond the link radius; queries, fields and paths "
+        "stay in the mesh's ids\n",
+        refined.num_vertices(), refined.num_faces(), graph.refined->max_edge_length(),
+        graph.stats.unrefined_faces_beyond_link,
+        100 * graph.stats.unrefined_area_fraction_beyond_link);
+  }
   add("error bound     %.4g (Theorem 4.2: 2r / (rho - 2r))\n", view.error_bound());
   if (for_error) {
     add("predicted error mean %.3g%%, p99 %.3g%% (target %.3g%%; docs/accuracy.md)\n",
         100 * for_error->predicted_mean, 100 * for_error->predicted_p99, 100 * args.target_error);
   }
   add("time load       %.3f s\n", load_seconds);
+  if (graph.refined) {
+    add("time first      %.3f s (the build on the mesh as given)\n",
+        graph.stats.unrefined_build_seconds);
+    add("time refining   %.3f s\n", graph.stats.refinement_seconds);
+  }
   add("time sampling   %.3f s\n", graph.stats.sampling_seconds);
   add("time local      %.3f s\n", graph.stats.local_solve_seconds);
   add("time covering   %.3f s\n", graph.stats.covering_seconds);
@@ -207,9 +226,22 @@ void run_inspect(const InspectArgs& args) {
   add("file            %s (%s, format version %u)\n", args.file.c_str(),
       human_bytes(static_cast<double>(file.file_size())).c_str(), file.format_version());
   add("source mesh     %s\n", std::string(file.source_mesh()).c_str());
-  add("mesh            %llu vertices, %llu faces, %llu edges\n",
-      static_cast<unsigned long long>(counts.vertices),
-      static_cast<unsigned long long>(counts.faces), static_cast<unsigned long long>(counts.edges));
+  if (const auto from = file.refined_from()) {
+    add("mesh            %llu vertices, %llu faces, %llu edges (queries are given in its ids)\n",
+        static_cast<unsigned long long>(from->vertices),
+        static_cast<unsigned long long>(from->faces),
+        static_cast<unsigned long long>(from->edges));
+    add("refined         to %llu vertices, %llu faces, %llu edges (edges <= %.6g), which the "
+        "graph is over\n",
+        static_cast<unsigned long long>(counts.vertices),
+        static_cast<unsigned long long>(counts.faces),
+        static_cast<unsigned long long>(counts.edges), from->max_edge_length);
+  } else {
+    add("mesh            %llu vertices, %llu faces, %llu edges\n",
+        static_cast<unsigned long long>(counts.vertices),
+        static_cast<unsigned long long>(counts.faces),
+        static_cast<unsigned long long>(counts.edges));
+  }
   add("fingerprint     %016llx\n", static_cast<unsigned long long>(file.fingerprint()));
   add("checksum        %016llx (verified)\n", static_cast<unsigned long long>(file.checksum()));
   add("samples         %u (m_P %u, sampling %s)\n", params.num_samples, params.neighbors,
@@ -276,6 +308,10 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
   build->add_option("--metric", build_args->metric,
                     "Riemannian metric side file (docs/metrics.md): the graph is built on its "
                     "edge lengths and is then valid only with the same metric");
+  build->add_flag("--no-refine", build_args->no_refine,
+                  "keep the graph on the mesh as given even where its faces are longer than the "
+                  "samples' spacing (by default the build then refines the mesh internally, "
+                  "answering in the mesh's own ids; docs/queries.md)");
   build->add_flag("-q,--quiet", build_args->quiet, "no progress display");
   commands.push_back({build, [build_args] { run_build(*build_args); }});
 

@@ -24,6 +24,7 @@
 #include "core/mesh/mesh.h"
 #include "core/mesh/mesh_io.h"
 #include "core/mesh/mesh_refinement.h"
+#include "core/graph/refined_surface.h"
 #include "core/mesh/mesh_repair.h"
 #include "core/graph/proximity_graph.h"
 #include "core/mesh/mesh_report.h"
@@ -290,37 +291,23 @@ std::string format_refine_map(const RefinedMesh& refined, const std::string& sou
 void run_refine(const RefineArgs& args) {
   const bool obj = mesh_output_is_obj(args.out, "refine");
   const TriangleMesh input = load_mesh(args.mesh);
+  // By default the refinement a graph build makes (core/graph/refined_surface.h): edges of at
+  // most half the link radius of a default graph of the output.
+  GraphRefinement refinement = refine_for_graph(input, {}, args.max_edge);
+  RefinedMesh& refined = refinement.refined;
+  const double max_edge = refinement.max_edge_length;
   // The refined mesh must load: anything else is a bug of refine_long_edges, not of the input.
   std::optional<TriangleMesh> mesh;
-  auto refine = [&](double max_edge) {
-    RefinedMesh refined = refine_long_edges(input, {.max_edge_length = max_edge});
-    try {
-      mesh.emplace(refined.positions, refined.faces);
-    } catch (const MeshError& e) {
-      throw InternalError(std::string("the refined mesh does not load: ") + e.what());
-    }
-    return refined;
-  };
-  // By default: half the link radius of a default graph of the output. More faces ask for more
-  // samples (Table 1), so shorter edges: refine the input again with the output's figure until
-  // it asks for no shorter ones.
-  auto default_link_radius = [](const TriangleMesh& m) {
-    return resolve_graph_size(m, IntrinsicGeometry(m)).link_radius;
-  };
-  double max_edge = args.max_edge > 0 ? args.max_edge : default_link_radius(input) / 2;
-  RefinedMesh refined = refine(max_edge);
+  try {
+    mesh.emplace(refined.positions, refined.faces);
+  } catch (const MeshError& e) {
+    throw InternalError(std::string("the refined mesh does not load: ") + e.what());
+  }
   std::string why;
   if (args.max_edge == 0) {
-    double rho = 2 * max_edge;
-    for (int round = 0; round < 8; ++round) {
-      rho = default_link_radius(*mesh);
-      if (rho / 2 >= max_edge) break;
-      max_edge = rho / 2;
-      refined = refine(max_edge);
-    }
     char buf[96];
     std::snprintf(buf, sizeof buf, " (half the link radius %.6g of a default graph of the output)",
-                  rho);
+                  refinement.link_radius);
     why = buf;
   }
   std::size_t faces_split = 0;

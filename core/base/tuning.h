@@ -138,6 +138,14 @@ inline constexpr std::size_t kGraphWriteBufferBytes = std::size_t{1} << 20;
 inline constexpr std::size_t kChecksumReadChunkBytes = 256 * 1024;
 inline constexpr std::size_t kTextFlushBytes = std::size_t{1} << 20;
 
+/// A build that leaves points beyond the link radius refines the mesh to edges of at most this
+/// fraction of the link radius (core/graph/refined_surface.h): then every point of a face lies
+/// within rho / (2 sqrt 3) of a vertex, so farthest-point sampling can reach it.
+inline constexpr double kGraphRefinementEdgeOfLinkRadius = 0.5;
+/// Refinements refine_for_graph makes at most while the refined mesh still asks for shorter
+/// edges (its link radius shrinks as Table 1 gives it more samples); each pass converges fast.
+inline constexpr int kGraphRefinementRounds = 8;
+
 // ---- Queries (core/query) -------------------------------------------------------------------
 
 /// Default of QueryTuning::link_solve_edges: a face or edge point's link solve reaches this many

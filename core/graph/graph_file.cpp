@@ -36,9 +36,10 @@ static_assert(offsetof(GraphFileHeader, mesh_fingerprint) == 112);
 static_assert(offsetof(GraphFileHeader, source_mesh) == 128);
 
 std::string_view graph_file_section_name(std::uint32_t id) {
-  const int k = graph_file_detail::section_index(id);
-  if (k < 0) return "unknown";
-  return graph_file_detail::kSections[k].name;
+  using namespace graph_file_detail;
+  if (const int k = section_index(id); k >= 0) return kSections[k].name;
+  if (const int k = refinement_section_index(id); k >= 0) return kRefinementSections[k].name;
+  return "unknown";
 }
 
 std::uint64_t graph_file_hash(const void* data, std::size_t size, std::uint64_t seed) {

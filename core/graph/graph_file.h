@@ -18,8 +18,10 @@
 #pragma once
 
 #include <cstddef>
+#include <array>
 #include <cstdint>
 #include <iosfwd>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -31,12 +33,15 @@
 
 namespace geoprox {
 
-/// The format version this build writes and reads.
+/// The format versions this build writes and reads: 2 for a graph over the mesh as given, 3 for
+/// one built on a refinement of it (ProximityGraph::refined), which also stores the map.
 inline constexpr std::uint32_t kGraphFileVersion = 2;
+inline constexpr std::uint32_t kGraphFileVersionRefined = 3;
 
 // The on-disk header and section-table row (core/graph/graph_file_format.h).
 struct GraphFileHeader;
 struct GraphFileSection;
+struct GraphFileRefinement;
 
 /// What the writer records besides the graph.
 struct GraphFileMetadata {
@@ -63,7 +68,9 @@ struct GraphFileCounts {
 /// core/graph/graph_file_format.h).
 std::uint64_t mesh_fingerprint(const TriangleMesh& mesh, const IntrinsicGeometry& geometry);
 
-/// Writes the bundle to a unique temporary file next to `path` (named `<path>.tmp-XXXXXX`, six
+/// Writes the bundle of `graph`, built on `mesh` with `geometry` (when the build refined the mesh,
+/// the bundle holds the refined mesh, the map and the fingerprint of `mesh`: version 3), to a
+/// unique temporary file next to `path` (named `<path>.tmp-XXXXXX`, six
 /// letters or digits, and locked with flock(2) while it is written), fsyncs it, renames it over
 /// `path` and fsyncs the directory: `path` is either the old file or the complete new one.
 /// Throws InvalidInput ("InvalidGraph") if the graph's arrays are inconsistent with each other
@@ -109,7 +116,8 @@ class MappedGraphFile {
   const std::string& path() const { return path_; }
   std::size_t file_size() const { return size_; }
 
-  /// The graph, in place (spans into the mapping).
+  /// The graph, in place (spans into the mapping). For a refined graph it is over the refined
+  /// mesh (make_mesh()), not the mesh queries are given in.
   ProximityGraphView view() const { return view_; }
   std::span<const Triangle> faces() const { return faces_; }
   std::span<const Vec3> positions() const { return positions_; }
@@ -130,11 +138,28 @@ class MappedGraphFile {
   const GraphFileHeader& header() const;
   std::span<const GraphFileSection> sections() const;
 
-  /// Throws FileError ("MeshMismatch") if the file was built for another mesh: says whether the
-  /// vertex/face/edge counts, the connectivity (first differing face) or the edge lengths
-  /// (first differing edge) differ.
+  /// A version-3 file's graph is over a refinement of the mesh queries are given in
+  /// (core/graph/refined_surface.h): that mesh's counts and the refinement's edge limit.
+  struct RefinedFrom {
+    std::uint64_t vertices = 0, faces = 0, edges = 0;
+    double max_edge_length = 0;  ///< mesh units
+  };
+  /// Set for a version-3 file, empty otherwise.
+  std::optional<RefinedFrom> refined_from() const;
+  /// Per face of the stored (refined) mesh: the input face it lies in, and its corners'
+  /// barycentrics there; empty unless refined_from().
+  std::span<const std::uint32_t> source_face() const { return source_face_; }
+  std::span<const std::array<std::array<double, 3>, 3>> source_bary() const {
+    return source_bary_;
+  }
+
+  /// Throws FileError ("MeshMismatch") if the file was built for another mesh (for a refined
+  /// graph, the mesh it refined): says whether the vertex/face/edge counts, the connectivity
+  /// (first differing face) or the edge lengths (first differing edge) differ, or, for a refined
+  /// graph, that the counts or the fingerprint do.
   void verify_mesh(const TriangleMesh& mesh, const IntrinsicGeometry& geometry) const;
-  /// The mesh stored in the bundle (copies its faces and positions). Same ids as the original.
+  /// The mesh stored in the bundle (copies its faces and positions): the mesh the graph is
+  /// over, with the original's ids, or the refined mesh of a refined graph.
   TriangleMesh make_mesh() const;
   /// The bundle's intrinsic edge lengths on `mesh` (usually make_mesh()); `mesh` must outlive it.
   IntrinsicGeometry make_geometry(const TriangleMesh& mesh) const;
@@ -153,6 +178,9 @@ class MappedGraphFile {
   std::span<const Vec3> positions_;
   std::span<const double> edge_lengths_;
   ProximityGraphView view_;
+  const GraphFileRefinement* refined_from_ = nullptr;  // in the mapping, version 3
+  std::span<const std::uint32_t> source_face_;
+  std::span<const std::array<std::array<double, 3>, 3>> source_bary_;
 };
 
 // ---------------------------------------------------------------------------------------------

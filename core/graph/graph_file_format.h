@@ -1,7 +1,7 @@
 // The byte layout of graph files (core/graph/graph_file.h), for the reader, the writer, tests and
 // other readers of the format. Callers of the API do not need it.
 //
-// Binary layout, version 2 (all integers and IEEE doubles/floats little-endian):
+// Binary layout, versions 2 and 3 (all integers and IEEE doubles/floats little-endian):
 //
 //   offset  size  field
 //   0       8     magic "GEOPROXG"
@@ -25,6 +25,8 @@
 //                 distance (double), edge direction (GraphDirection: uint32 face, float x,
 //                 float y), cover offsets (uint32, vertices + 1), cover sample (uint32), cover
 //                 distance (float)
+//                 version 3 only, after them: refined from (one GraphFileRefinement), source
+//                 face (uint32 per face), source barycentrics (3 x 3 doubles per face)
 //   file_size-8 8 checksum: graph_file_hash(bytes [0, file_size - 8), kGraphFileChecksumSeed)
 #pragma once
 
@@ -83,8 +85,27 @@ enum class GraphFileSectionId : std::uint32_t {
   CoverOffsets = 9,    ///< uint32, vertices + 1
   CoverSample = 10,    ///< uint32 per cover entry
   CoverDistance = 11,  ///< float per cover entry
+  // Version 3: the graph was built on a refinement of the mesh queries are given in (the
+  // sections above describe the refined mesh; core/graph/refined_surface.h).
+  RefinedFrom = 12,    ///< one GraphFileRefinement
+  SourceFace = 13,     ///< uint32 per face: the input face it lies in
+  SourceBary = 14,     ///< 3 x 3 doubles per face: its corners' barycentrics in that face
 };
+/// Sections every file has (ids 1 to 11), and those only version 3 has (ids 12 to 14).
 inline constexpr std::uint32_t kGraphFileSectionCount = 11;
+inline constexpr std::uint32_t kGraphFileRefinementSectionCount = 3;
+
+/// The mesh a version-3 file answers for (the input of its refinement), exactly as on disk.
+struct GraphFileRefinement {
+  std::uint64_t input_vertices;
+  std::uint64_t input_faces;
+  std::uint64_t input_edges;
+  std::uint64_t input_fingerprint;  ///< mesh_fingerprint of the input and its lengths
+  double max_edge_length;           ///< no edge of the refined mesh is longer (mesh units)
+  std::uint64_t reserved[3];        ///< zero
+};
+static_assert(sizeof(GraphFileRefinement) == 64);
+static_assert(std::is_trivially_copyable_v<GraphFileRefinement>);
 
 /// One row of the section table, exactly as on disk.
 struct GraphFileSection {

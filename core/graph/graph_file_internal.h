@@ -133,6 +133,20 @@ inline constexpr SectionSpec kSections[kGraphFileSectionCount] = {
     {GraphFileSectionId::CoverDistance, 4, "cover_distance"},
 };
 
+/// The refinement sections of version 3, in file order after kSections.
+inline constexpr SectionSpec kRefinementSections[kGraphFileRefinementSectionCount] = {
+    {GraphFileSectionId::RefinedFrom, 64, "refined_from"},
+    {GraphFileSectionId::SourceFace, 4, "source_face"},
+    {GraphFileSectionId::SourceBary, 72, "source_bary"},
+};
+
+/// Index of a refinement section id in kRefinementSections, or -1.
+inline int refinement_section_index(std::uint32_t id) {
+  return id > kGraphFileSectionCount && id <= kGraphFileSectionCount + kGraphFileRefinementSectionCount
+             ? static_cast<int>(id - kGraphFileSectionCount) - 1
+             : -1;
+}
+
 /// Index of a known section id in kSections, or -1.
 inline int section_index(std::uint32_t id) {
   return id >= 1 && id <= kGraphFileSectionCount ? static_cast<int>(id) - 1 : -1;

@@ -9,6 +9,7 @@
 #include <array>
 #include <bit>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -20,6 +21,7 @@
 #include "core/graph/graph_file.h"
 #include "core/graph/graph_file_format.h"
 #include "core/graph/graph_file_internal.h"
+#include "core/mesh/surface_point.h"
 
 namespace geoprox {
 
@@ -32,8 +34,9 @@ using namespace graph_file_detail;
   throw FileError(code, "graph file '" + path + "': " + what);
 }
 
-/// The known sections of a file's table, by index in kSections.
-using SectionsById = std::array<const GraphFileSection*, kGraphFileSectionCount>;
+/// The known sections of a file's table, by index in kSections, then kRefinementSections.
+using SectionsById =
+    std::array<const GraphFileSection*, kGraphFileSectionCount + kGraphFileRefinementSectionCount>;
 
 const GraphFileSection& section(const SectionsById& found, GraphFileSectionId id) {
   return *found[static_cast<std::uint32_t>(id) - 1];
@@ -113,11 +116,12 @@ void check_endianness_and_version(const GraphFileHeader& h, const std::string& p
     throw_open_error(ErrorCode::CorruptHeader, path,
                      "bad endianness marker " + hex64(h.endian_marker));
   }
-  if (h.version != kGraphFileVersion) {
+  if (h.version != kGraphFileVersion && h.version != kGraphFileVersionRefined) {
     throw_open_error(ErrorCode::UnsupportedVersion, path,
                      "format version " + std::to_string(h.version) +
-                         (h.version > kGraphFileVersion ? " is newer than" : " is not") +
-                         " the version this build reads (" + std::to_string(kGraphFileVersion) +
+                         (h.version > kGraphFileVersionRefined ? " is newer than" : " is not") +
+                         " the versions this build reads (" + std::to_string(kGraphFileVersion) +
+                         " and " + std::to_string(kGraphFileVersionRefined) +
                          "); rebuild the graph with this geoprox");
   }
 }
@@ -211,6 +215,24 @@ void check_known_section(const GraphFileSection& s, int k, const GraphFileHeader
   }
 }
 
+/// A refinement section (index r in kRefinementSections): first of its id, with its element size
+/// and count (one record, or one per face).
+void check_refinement_section(const GraphFileSection& s, int r, const GraphFileHeader& h,
+                              const SectionsById& found, const std::string& name,
+                              const std::string& path) {
+  const std::uint64_t expected_count = r == 0 ? 1 : h.num_faces;
+  if (found[kGraphFileSectionCount + r] != nullptr) {
+    throw_open_error(ErrorCode::CorruptHeader, path, name + " appears twice");
+  }
+  if (s.element_size != kRefinementSections[r].element_size || s.count != expected_count) {
+    throw_open_error(ErrorCode::CorruptHeader, path,
+                     name + " has " + std::to_string(s.count) + " elements of " +
+                         std::to_string(s.element_size) + " bytes, not " +
+                         std::to_string(expected_count) + " of " +
+                         std::to_string(kRefinementSections[r].element_size));
+  }
+}
+
 /// The section table: every row checked, every known section present once, no overlaps.
 SectionsById find_sections(std::span<const GraphFileSection> table, const GraphFileHeader& h,
                            const std::string& path) {
@@ -221,15 +243,26 @@ SectionsById find_sections(std::span<const GraphFileSection> table, const GraphF
                              std::to_string(s.id) + ")";
     check_section_extent(s, h, name, path);
     extents.emplace_back(s.offset, s.offset + s.size);
-    const int k = section_index(s.id);
-    if (k < 0) continue;  // unknown sections are skipped (bounds checked above)
-    check_known_section(s, k, h, found, name, path);
-    found[k] = &s;
+    if (const int k = section_index(s.id); k >= 0) {
+      check_known_section(s, k, h, found, name, path);
+      found[k] = &s;
+    } else if (const int r = refinement_section_index(s.id); r >= 0) {
+      check_refinement_section(s, r, h, found, name, path);
+      found[kGraphFileSectionCount + r] = &s;
+    }  // unknown sections are skipped (bounds checked above)
   }
-  for (std::uint32_t k = 0; k < kGraphFileSectionCount; ++k) {
-    if (found[k] == nullptr) {
+  for (std::uint32_t k = 0; k < kGraphFileSectionCount + kGraphFileRefinementSectionCount; ++k) {
+    const bool wanted = k < kGraphFileSectionCount || h.version == kGraphFileVersionRefined;
+    const char* name = k < kGraphFileSectionCount ? kSections[k].name
+                                                  : kRefinementSections[k - kGraphFileSectionCount].name;
+    if (wanted && found[k] == nullptr) {
+      throw_open_error(ErrorCode::CorruptHeader, path, std::string("section ") + name +
+                                                           " is missing");
+    }
+    if (!wanted && found[k] != nullptr) {
       throw_open_error(ErrorCode::CorruptHeader, path,
-                       std::string("section ") + kSections[k].name + " is missing");
+                       std::string("section ") + name + " in a version " +
+                           std::to_string(h.version) + " file");
     }
   }
   std::sort(extents.begin(), extents.end());
@@ -394,6 +427,43 @@ GraphArrays arrays_of(const GraphFileHeader& h, std::span<const Triangle> faces,
   return a;
 }
 
+/// The refinement sections of a version-3 file, checked: the record's counts are 32-bit and
+/// within the file's, its edge limit finite, the source faces in range, the barycentrics on the
+/// simplex (RefinementMap checks them again against the mesh it is given).
+struct RefinementSections {
+  const GraphFileRefinement* record = nullptr;
+  std::span<const std::uint32_t> source_face;
+  std::span<const std::array<std::array<double, 3>, 3>> source_bary;
+};
+RefinementSections refinement_sections(const unsigned char* base, const GraphFileHeader& h,
+                                       const SectionsById& found, const std::string& path) {
+  RefinementSections out;
+  out.record = reinterpret_cast<const GraphFileRefinement*>(
+      base + section(found, GraphFileSectionId::RefinedFrom).offset);
+  const GraphFileRefinement& r = *out.record;
+  if (r.input_vertices > h.num_vertices || r.input_faces > h.num_faces || r.input_faces == 0 ||
+      r.input_edges > h.num_edges || !(std::isfinite(r.max_edge_length) && r.max_edge_length > 0)) {
+    throw_open_error(ErrorCode::CorruptGraph, path,
+                     "corrupt contents: the refinement record's counts or edge limit");
+  }
+  out.source_face = section_span<std::uint32_t>(base, section(found, GraphFileSectionId::SourceFace));
+  out.source_bary = section_span<std::array<std::array<double, 3>, 3>>(
+      base, section(found, GraphFileSectionId::SourceBary));
+  for (std::size_t g = 0; g < out.source_face.size(); ++g) {
+    bool inside = out.source_face[g] < r.input_faces;
+    for (const auto& b : out.source_bary[g]) {
+      inside = inside && b[0] >= 0 && b[1] >= 0 && b[2] >= 0 &&
+               std::abs(b[0] + b[1] + b[2] - 1) <= kBarycentricSumTolerance;
+    }
+    if (!inside) {
+      throw_open_error(ErrorCode::CorruptGraph, path,
+                       "corrupt contents: face " + std::to_string(g) +
+                           " of the refined mesh does not lie in an input face");
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -440,6 +510,12 @@ MappedGraphFile MappedGraphFile::open(const std::string& path, const OpenOptions
   if (std::string problem = arrays_problem(arrays); !problem.empty()) {
     throw_open_error(ErrorCode::CorruptGraph, path, "corrupt contents: " + problem);
   }
+  if (h.version == kGraphFileVersionRefined) {
+    const RefinementSections refinement = refinement_sections(base, h, found, path);
+    file.refined_from_ = refinement.record;
+    file.source_face_ = refinement.source_face;
+    file.source_bary_ = refinement.source_bary;
+  }
   return file;
 }
 
@@ -459,6 +535,9 @@ MappedGraphFile& MappedGraphFile::operator=(MappedGraphFile&& other) noexcept {
     positions_ = std::exchange(other.positions_, {});
     edge_lengths_ = std::exchange(other.edge_lengths_, {});
     view_ = std::exchange(other.view_, ProximityGraphView{});
+    refined_from_ = std::exchange(other.refined_from_, nullptr);
+    source_face_ = std::exchange(other.source_face_, {});
+    source_bary_ = std::exchange(other.source_bary_, {});
   }
   return *this;
 }
@@ -483,6 +562,12 @@ std::span<const GraphFileSection> MappedGraphFile::sections() const {
 }
 
 std::uint32_t MappedGraphFile::format_version() const { return header().version; }
+
+std::optional<MappedGraphFile::RefinedFrom> MappedGraphFile::refined_from() const {
+  if (refined_from_ == nullptr) return std::nullopt;
+  const GraphFileRefinement& r = *refined_from_;
+  return RefinedFrom{r.input_vertices, r.input_faces, r.input_edges, r.max_edge_length};
+}
 
 GraphFileParams MappedGraphFile::params() const {
   const GraphFileHeader& h = header();
@@ -510,6 +595,24 @@ void MappedGraphFile::verify_mesh(const TriangleMesh& mesh,
   const std::string prefix = "graph file '" + path_ + "' was built for another mesh: ";
   const std::uint64_t nv = mesh.num_vertices(), nf = mesh.num_faces(),
                       ne = geometry.edge_lengths().size();
+  if (refined_from_ != nullptr) {
+    const GraphFileRefinement& r = *refined_from_;
+    if (nv != r.input_vertices || nf != r.input_faces || ne != r.input_edges) {
+      throw FileError(ErrorCode::MeshMismatch,
+                      prefix + "it refines a mesh of " + std::to_string(r.input_vertices) +
+                          " vertices, " + std::to_string(r.input_faces) + " faces, " +
+                          std::to_string(r.input_edges) + " edges; the mesh has " +
+                          std::to_string(nv) + " vertices, " + std::to_string(nf) + " faces, " +
+                          std::to_string(ne) + " edges");
+    }
+    if (const std::uint64_t fp = mesh_fingerprint(mesh, geometry); fp != r.input_fingerprint) {
+      throw FileError(ErrorCode::MeshMismatch,
+                      prefix + "same counts, but the fingerprint of the mesh it refines is " +
+                          hex64(r.input_fingerprint) + " and the mesh's " + hex64(fp) +
+                          " (other connectivity or edge lengths)");
+    }
+    return;
+  }
   if (nv != h.num_vertices || nf != h.num_faces || ne != h.num_edges) {
     throw FileError(ErrorCode::MeshMismatch,
                     prefix + "it has " + std::to_string(h.num_vertices) + " vertices, " +

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "core/graph/graph_file.h"
 #include "core/graph/graph_file_format.h"
 #include "core/graph/graph_file_internal.h"
+#include "core/graph/refined_surface.h"
 
 namespace geoprox {
 
@@ -159,24 +161,51 @@ void check_writable(const std::string& path, const TriangleMesh& mesh, const Pro
   }
 }
 
+inline constexpr std::uint32_t kMaxSectionsWritten =
+    kGraphFileSectionCount + kGraphFileRefinementSectionCount;
+
 /// Header, section table and array bytes of a file, and where its checksum goes.
 struct FileLayout {
   GraphFileHeader header{};
-  GraphFileSection table[kGraphFileSectionCount];
-  std::span<const std::byte> data[kGraphFileSectionCount];
+  std::uint32_t sections = 0;
+  GraphFileSection table[kMaxSectionsWritten];
+  std::span<const std::byte> data[kMaxSectionsWritten];
   std::uint64_t checksum_offset = 0;
 };
+
+/// The refinement sections' contents of a graph built on a refinement of `input`.
+struct RefinementToWrite {
+  GraphFileRefinement record{};
+  std::span<const std::uint32_t> source_face;
+  std::span<const RefinementMap::CornerBarys> source_bary;
+};
+
+RefinementToWrite refinement_to_write(const TriangleMesh& input,
+                                      const IntrinsicGeometry& input_geometry,
+                                      const RefinedSurface& refined) {
+  RefinementToWrite out;
+  out.record.input_vertices = input.num_vertices();
+  out.record.input_faces = input.num_faces();
+  out.record.input_edges = input_geometry.edge_lengths().size();
+  out.record.input_fingerprint = mesh_fingerprint(input, input_geometry);
+  out.record.max_edge_length = refined.max_edge_length();
+  out.source_face = refined.source_face();
+  out.source_bary = refined.source_bary();
+  return out;
+}
 
 GraphFileHeader header_of(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                           const ProximityGraph& graph, const GraphFileMetadata& metadata,
                           const GraphArrays& a) {
   GraphFileHeader header{};
   std::memcpy(header.magic, kGraphFileMagic, sizeof header.magic);
-  header.version = kGraphFileVersion;
+  const bool refined = graph.refined != nullptr;
+  header.version = refined ? kGraphFileVersionRefined : kGraphFileVersion;
   header.endian_marker = kGraphFileEndianMarker;
-  header.section_count = kGraphFileSectionCount;
+  header.section_count =
+      kGraphFileSectionCount + (refined ? kGraphFileRefinementSectionCount : 0);
   header.header_size = static_cast<std::uint32_t>(align_up(
-      kFixedHeaderSize + kGraphFileSectionCount * sizeof(GraphFileSection), kGraphFileAlignment));
+      kFixedHeaderSize + header.section_count * sizeof(GraphFileSection), kGraphFileAlignment));
   header.param_samples = static_cast<std::uint32_t>(graph.sample_vertex.size());
   header.param_neighbors = graph.neighbors;
   const SamplingMethod sampling = metadata.sampling == SamplingMethod::Automatic
@@ -200,25 +229,32 @@ GraphFileHeader header_of(const TriangleMesh& mesh, const IntrinsicGeometry& geo
 
 /// Places the arrays after the header, each at a multiple of kGraphFileAlignment, and the
 /// checksum after them; completes the header's file_size.
-FileLayout lay_out(const GraphFileHeader& header, const GraphArrays& a) {
+FileLayout lay_out(const GraphFileHeader& header, const GraphArrays& a,
+                   const RefinementToWrite* refinement) {
   FileLayout layout;
   layout.header = header;
-  const std::span<const std::byte> data[kGraphFileSectionCount] = {
+  layout.sections = header.section_count;
+  const std::span<const std::byte> data[kMaxSectionsWritten] = {
       std::as_bytes(a.faces),         std::as_bytes(a.positions),
       std::as_bytes(a.edge_lengths),  std::as_bytes(a.sample_vertex),
       std::as_bytes(a.edge_offsets),  std::as_bytes(a.edge_target),
       std::as_bytes(a.edge_distance), std::as_bytes(a.edge_direction),
       std::as_bytes(a.cover_offsets), std::as_bytes(a.cover_sample),
-      std::as_bytes(a.cover_distance)};
+      std::as_bytes(a.cover_distance),
+      refinement ? std::as_bytes(std::span(&refinement->record, 1)) : std::span<const std::byte>(),
+      refinement ? std::as_bytes(refinement->source_face) : std::span<const std::byte>(),
+      refinement ? std::as_bytes(refinement->source_bary) : std::span<const std::byte>()};
   std::uint64_t offset = header.header_size;
-  for (std::uint32_t k = 0; k < kGraphFileSectionCount; ++k) {
+  for (std::uint32_t k = 0; k < layout.sections; ++k) {
+    const SectionSpec& spec =
+        k < kGraphFileSectionCount ? kSections[k] : kRefinementSections[k - kGraphFileSectionCount];
     offset = align_up(offset, kGraphFileAlignment);
     GraphFileSection& row = layout.table[k];
-    row.id = static_cast<std::uint32_t>(kSections[k].id);
-    row.element_size = kSections[k].element_size;
+    row.id = static_cast<std::uint32_t>(spec.id);
+    row.element_size = spec.element_size;
     row.offset = offset;
     row.size = data[k].size();
-    row.count = data[k].size() / kSections[k].element_size;
+    row.count = data[k].size() / spec.element_size;
     layout.data[k] = data[k];
     offset += data[k].size();
   }
@@ -249,8 +285,8 @@ void create_locked_temporary(const std::string& path, TempFile& temp) {
 void write_contents(int fd, const std::string& path, const FileLayout& layout) {
   Sink sink(fd, path);
   sink.put(&layout.header, sizeof layout.header);
-  sink.put(layout.table, sizeof layout.table);
-  for (std::uint32_t k = 0; k < kGraphFileSectionCount; ++k) {
+  sink.put(layout.table, layout.sections * sizeof(GraphFileSection));
+  for (std::uint32_t k = 0; k < layout.sections; ++k) {
     sink.pad_to(layout.table[k].offset);
     sink.put(layout.data[k].data(), layout.data[k].size());
   }
@@ -283,10 +319,25 @@ void commit(TempFile& temp, const std::string& path) {
 void write_graph_file(const std::string& path, const TriangleMesh& mesh,
                       const IntrinsicGeometry& geometry, const ProximityGraph& graph,
                       const GraphFileMetadata& metadata) {
+  // A graph built on a refinement is over the refined mesh; `mesh` is the one it refines.
+  const TriangleMesh& graph_mesh = graph.refined ? graph.refined->mesh() : mesh;
+  const IntrinsicGeometry& graph_geometry = graph.refined ? graph.refined->geometry() : geometry;
+  std::optional<RefinementToWrite> refinement;
+  if (graph.refined) {
+    if (&graph.refined->input() != &mesh) {
+      throw InvalidInput(ErrorCode::InvalidGraph,
+                         "refusing to write graph file '" + path +
+                             "': the graph was built on a refinement of another mesh object");
+    }
+    refinement = refinement_to_write(mesh, geometry, *graph.refined);
+  }
   std::vector<std::uint32_t> zero_cover_offsets;
-  const GraphArrays arrays = arrays_to_write(mesh, geometry, graph, zero_cover_offsets);
-  check_writable(path, mesh, graph, arrays);
-  const FileLayout layout = lay_out(header_of(mesh, geometry, graph, metadata, arrays), arrays);
+  const GraphArrays arrays =
+      arrays_to_write(graph_mesh, graph_geometry, graph, zero_cover_offsets);
+  check_writable(path, graph_mesh, graph, arrays);
+  const FileLayout layout =
+      lay_out(header_of(graph_mesh, graph_geometry, graph, metadata, arrays), arrays,
+              refinement ? &*refinement : nullptr);
   TempFile temp;
   create_locked_temporary(path, temp);
   write_contents(temp.fd, path, layout);

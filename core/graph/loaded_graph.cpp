@@ -36,7 +36,7 @@ LoadedGraph::LoadedGraph(const std::string& mesh_path, const std::string& graph_
       mesh(data->mesh),
       geometry(data->geometry),
       file(open_verified(graph_path, *data)) {
-  query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view(), options);
+  make_query(options);
 }
 
 LoadedGraph::LoadedGraph(std::shared_ptr<const MeshData> mesh_data, MappedGraphFile graph_file,
@@ -45,7 +45,16 @@ LoadedGraph::LoadedGraph(std::shared_ptr<const MeshData> mesh_data, MappedGraphF
       mesh(data->mesh),
       geometry(data->geometry),
       file(std::move(graph_file)) {
-  query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view(), options);
+  make_query(options);
+}
+
+void LoadedGraph::make_query(const GeodesicQueryOptions& options) {
+  if (file.refined_from()) {
+    refined = std::make_unique<const RefinedSurface>(mesh, file);
+    query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view(), *refined, options);
+  } else {
+    query = std::make_unique<GeodesicQuery>(mesh, geometry, file.view(), options);
+  }
 }
 
 }  // namespace geoprox

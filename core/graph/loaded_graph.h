@@ -12,6 +12,7 @@
 #include <string>
 
 #include "core/graph/graph_file.h"
+#include "core/graph/refined_surface.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
 #include "core/mesh/mesh_io.h"
@@ -61,7 +62,13 @@ struct LoadedGraph {
   const TriangleMesh& mesh;            ///< data->mesh
   const IntrinsicGeometry& geometry;  ///< data->geometry
   MappedGraphFile file;
+  /// The refinement the graph was built on (a version-3 file), or null; the query answers on
+  /// `mesh` through it.
+  std::unique_ptr<const RefinedSurface> refined;
   std::unique_ptr<GeodesicQuery> query;
+
+ private:
+  void make_query(const GeodesicQueryOptions& options);
 };
 
 }  // namespace geoprox

@@ -20,6 +20,7 @@
 #include "core/geodesic/covering_radius.h"
 #include "core/geodesic/exact_geodesic.h"
 #include "core/geodesic/fast_marching.h"
+#include "core/graph/refined_surface.h"
 #include "core/mesh/mesh_report.h"
 
 namespace geoprox {
@@ -154,7 +155,8 @@ std::string sparse_sampling_warning(const ProximityGraphView& graph,
   }
   return std::string(text) +
          "Faces that long leave gaps between the samples (which are vertices), and answers "
-         "through them can be far off: serve a refined mesh instead "
+         "through them can be far off: build without --no-refine (the build then refines the "
+         "mesh internally; not under a metric), or serve a refined mesh "
          "(geoprox refine MESH -o OUT.obj; docs/meshes.md)";
 }
 
@@ -629,9 +631,11 @@ void measure_covering_radius(const TriangleMesh& mesh, const IntrinsicGeometry& 
 
 }  // namespace
 
-ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
-                                     const ProximityGraphOptions& options,
-                                     const BuildProgress& progress) {
+namespace {
+
+/// The paper's build on `mesh` as it is.
+ProximityGraph build_on(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                        const ProximityGraphOptions& options, const BuildProgress& progress) {
   const auto start = std::chrono::steady_clock::now();
   const GraphSize size = resolve_graph_size(mesh, geometry, options);
   ProximityGraph graph;
@@ -663,6 +667,35 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   measure_covering_radius(mesh, geometry, samples, size.area, graph);
   if (progress) progress("covering radius", 1);
   graph.stats.covering_seconds = seconds_since(covering_start);
+  return graph;
+}
+
+}  // namespace
+
+ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                                     const ProximityGraphOptions& options,
+                                     const BuildProgress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  ProximityGraph first = build_on(mesh, geometry, options, progress);
+  if (!options.refine_long_faces || first.stats.faces_beyond_link == 0 ||
+      !geometry.lengths_are_chords() ||
+      (options.candidate_vertices != 0 && options.candidate_vertices < mesh.num_vertices())) {
+    return first;
+  }
+  const double first_seconds = seconds_since(start);
+  const auto refine_start = std::chrono::steady_clock::now();
+  if (progress) progress("refining", 0);
+  GraphRefinement refinement = refine_for_graph(mesh, options);
+  auto refined = std::make_shared<const RefinedSurface>(mesh, std::move(refinement.refined),
+                                                        refinement.max_edge_length);
+  const double refine_seconds = seconds_since(refine_start);
+  if (progress) progress("refining", 1);
+  ProximityGraph graph = build_on(refined->mesh(), refined->geometry(), options, progress);
+  graph.refined = std::move(refined);
+  graph.stats.unrefined_faces_beyond_link = first.stats.faces_beyond_link;
+  graph.stats.unrefined_area_fraction_beyond_link = first.stats.area_fraction_beyond_link;
+  graph.stats.unrefined_build_seconds = first_seconds;
+  graph.stats.refinement_seconds = refine_seconds;
   return graph;
 }
 

@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -26,6 +27,8 @@
 #include "core/mesh/surface_point.h"
 
 namespace geoprox {
+
+class RefinedSurface;
 
 enum class SamplingMethod : std::uint8_t {
   Automatic = 0,    ///< fast marching unless the mesh's triangles are poorly shaped
@@ -52,6 +55,12 @@ struct ProximityGraphOptions {
   /// OpenMP threads for the local solves; 0 (default) uses OpenMP's default. The graph is
   /// identical for every thread count.
   int threads = 0;
+  /// When the graph leaves points with no sample within the link radius (faces longer than the
+  /// samples' spacing), build again on a refinement of the mesh (core/graph/refined_surface.h)
+  /// that stays behind the mesh's own ids; default on. Only under the mesh's own lengths and
+  /// with every vertex a candidate (a metric or candidate_vertices keep the first build, with
+  /// sparse_sampling_warning's warning).
+  bool refine_long_faces = true;
 };
 
 /// rho, the link radius of n_P = `num_samples` samples over a surface of `area` (mesh units
@@ -150,6 +159,13 @@ struct ProximityGraphStats {
   /// vertex (so no sample) inside, which graph paths cross badly (docs/queries.md).
   std::size_t faces_beyond_link = 0;
   double area_fraction_beyond_link = 0;
+  /// When the build refined the mesh (ProximityGraph::refined): what the first build, on the
+  /// mesh as given, left beyond the link radius, and the seconds of that build and of the
+  /// refinement (the phases above are the refined build's).
+  std::size_t unrefined_faces_beyond_link = 0;
+  double unrefined_area_fraction_beyond_link = 0;
+  double unrefined_build_seconds = 0;
+  double refinement_seconds = 0;
 };
 
 /// Progress of a build: phase name ("sampling", "local solves", "covering radius"), fraction
@@ -174,10 +190,15 @@ class ProximityGraph {
   std::vector<std::uint32_t> cover_sample;
   std::vector<float> cover_distance;
   ProximityGraphStats stats;
+  /// Set when the build refined the mesh (ProximityGraphOptions::refine_long_faces): the arrays
+  /// above are then over refined->mesh(), and `refined` maps its points to the mesh given to
+  /// the build, which must outlive it. Null when the graph is over the mesh as given.
+  std::shared_ptr<const RefinedSurface> refined;
 };
 
 /// Builds the graph (throws InvalidInput for impossible options, e.g. more samples than
-/// vertices).
+/// vertices). See ProximityGraphOptions::refine_long_faces for when it is built on a
+/// refinement of `mesh`.
 ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                                      const ProximityGraphOptions& options = {},
                                      const BuildProgress& progress = {});

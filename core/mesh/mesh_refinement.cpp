@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "core/base/errors.h"
+#include "core/mesh/refinement_map.h"
 
 namespace geoprox {
 
@@ -42,21 +43,6 @@ int longest_side(const std::vector<Vec3>& positions, const Triangle& t) {
     }
   }
   return best;
-}
-
-// Where a new vertex lies on the input mesh, from its barycentrics in input face f: on an input
-// edge when one of them is zero.
-SurfacePoint input_point(const TriangleMesh& mesh, std::uint32_t f, const Bary& b) {
-  for (int k = 0; k < 3; ++k) {
-    if (b[k] != 0) continue;
-    // On the side from corner k + 1 to corner k + 2, halfedge 3f + (k + 1) % 3.
-    const std::uint32_t h = 3 * f + (k + 1) % 3;
-    const std::uint32_t e = mesh.edge_of(h);
-    const double t = b[(k + 2) % 3];  // the share of the side's end
-    return mesh.edge_origin(e) == mesh.origin(h) ? SurfacePoint::edge(e, t)
-                                                  : SurfacePoint::edge(e, 1 - t);
-  }
-  return SurfacePoint::face(f, b[0], b[1], b[2]);
 }
 
 /// Marked edge (edge_key) -> its new midpoint vertex, kUnassigned until created.
@@ -142,7 +128,7 @@ class RoundSplitter {
     if (id == kUnassigned) {
       id = static_cast<std::uint32_t>(out_.positions.size());
       out_.positions.push_back(0.5 * (out_.positions[a] + out_.positions[b]));
-      out_.new_vertex_source.push_back(input_point(mesh_, out_.source_face[f], bary));
+      out_.new_vertex_source.push_back(simplest_point_in_face(mesh_, out_.source_face[f], bary));
     }
     return id;
   }
@@ -199,7 +185,7 @@ class RoundSplitter {
     const auto g = static_cast<std::uint32_t>(out_.positions.size());
     out_.positions.push_back((1.0 / 3) * (out_.positions[t[0]] + out_.positions[t[1]] +
                                           out_.positions[t[2]]));
-    out_.new_vertex_source.push_back(input_point(mesh_, out_.source_face[f], centre));
+    out_.new_vertex_source.push_back(simplest_point_in_face(mesh_, out_.source_face[f], centre));
     for (std::size_t k = 0; k < rim.size(); ++k) {
       const auto& [u, bu] = rim[k];
       const auto& [w, bw] = rim[(k + 1) % rim.size()];

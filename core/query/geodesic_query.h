@@ -38,6 +38,8 @@
 
 namespace geoprox {
 
+class RefinedSurface;
+
 namespace detail {
 class QueryEngine;
 struct QueryTuning;
@@ -148,6 +150,13 @@ class GeodesicQuery {
   /// Throws InvalidInput (GraphMismatch) if the graph was built for another vertex count.
   GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                 const ProximityGraphView& graph, const Options& options = {});
+  /// Over a graph built on a refinement of `mesh` (ProximityGraph::refined, or a version-3
+  /// graph file's: core/graph/refined_surface.h): the graph and the searches work on
+  /// refined.mesh(), while points are given and answered on `mesh` (paths' points too), and
+  /// fields are per vertex of `mesh`. `refined` must outlive the query.
+  GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
+                const ProximityGraphView& graph, const RefinedSurface& refined,
+                const Options& options = {});
   /// Tests only: the same with other links and graph search than the defaults (query_engine.h).
   GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                 const ProximityGraphView& graph, const Options& options,
@@ -192,15 +201,28 @@ class GeodesicQuery {
   /// farther than 5% of the bounding-box diagonal).
   SnapResult snap(const Vec3& position) const;
 
+  /// The mesh points are given on, and its lengths.
   const TriangleMesh& mesh() const;
   const IntrinsicGeometry& geometry() const;
+  /// The graph (over the refined mesh when built on a refinement).
   const ProximityGraphView& graph() const;
+  /// The refinement the graph was built on, or null.
+  const RefinedSurface* refined() const { return refined_; }
   /// rho: the graph's link radius (or, for an imported graph without one, the radius at which a
   /// disk holds 2 m_P samples on average).
   double link_radius() const;
 
  private:
+  /// `point` (given on mesh()) on the engine's mesh.
+  SurfacePoint to_engine(const SurfacePoint& point) const;
+  std::vector<SurfacePoint> to_engine(std::span<const SurfacePoint> points) const;
+  /// A path of the engine's mesh on mesh(), from s to t as given.
+  void path_to_mesh(PathResult& path, const SurfacePoint& s, const SurfacePoint& t) const;
+
   std::unique_ptr<detail::QueryEngine> engine_;
+  const TriangleMesh* mesh_;
+  const IntrinsicGeometry* geometry_;
+  const RefinedSurface* refined_ = nullptr;
 };
 
 }  // namespace geoprox

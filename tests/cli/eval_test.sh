@@ -57,10 +57,11 @@ eval_spot "$tmp/c" 4
 [ "$(grep '^worst pair' "$tmp/a")" != "$(grep '^worst pair' "$tmp/c")" ] ||
   fail "seeds 3 and 4 gave the same worst pair"; pass
 
-# A mesh whose long faces leave gaps between the samples (write_long_faced_strip_obj):
-# no bound to check against, and eval says why.
+# A mesh whose long faces leave gaps between the samples (write_long_faced_strip_obj), built
+# without the internal refinement: no bound to check against, and eval says why.
 write_long_faced_strip_obj "$tmp/strip.obj"
-"$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" -q >/dev/null 2>&1 || fail "strip build failed"
+"$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" --no-refine -q >/dev/null 2>&1 ||
+  fail "strip build failed"
 "$geoprox" eval "$tmp/strip.obj" "$tmp/strip.geoprox" --pairs 100 --fields 1 --no-fmm --json \
   >"$tmp/strip" 2>"$tmp/err" || fail "strip eval failed: $(cat "$tmp/err")"
 grep -q '^error bound *none (Theorem 4.2 needs rho > 2r; r 4.51' "$tmp/strip" ||
@@ -69,6 +70,17 @@ tail -n 1 "$tmp/strip" | python3 -c '
 import json, sys
 r = json.load(sys.stdin)
 assert r["error_bound"] is None and r["error"]["below_exact"] == 0, r' || fail "strip JSON"; pass
+# Refined internally (the default), the same strip is answered within the aims of clean scans.
+"$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" -q >/dev/null 2>&1 || fail "strip build failed"
+"$geoprox" eval "$tmp/strip.obj" "$tmp/strip.geoprox" --pairs 200 --fields 1 --no-fmm --json \
+  >"$tmp/strip" 2>"$tmp/err" || fail "strip eval failed: $(cat "$tmp/err")"
+tail -n 1 "$tmp/strip" | python3 -c '
+import json, sys
+r = json.load(sys.stdin)
+assert r["error_bound"] is not None and r["error"]["below_exact"] == 0, r
+assert r["error"]["mean"] < 0.003 and r["error"]["max"] < 0.02, r["error"]
+assert r["field_error"]["max"] < 0.03 and r["field_error"]["below_exact"] == 0, r' ||
+  fail "refined strip JSON: $(tail -n 1 "$tmp/strip")"; pass
 
 # A graph built for another mesh is refused.
 set +e

@@ -64,21 +64,52 @@ expect_error "$spot" ForeignFile
 expect_error "$tmp/missing.geoprox" FileNotFound
 
 # A flat 10 x 1 strip (write_long_faced_strip_obj): a 10 x 10 grid, then eleven long faces with
-# no vertex inside. Every vertex becomes a sample, yet the long faces' middles are 4.51 from all
-# of them, beyond the link radius: the build succeeds and warns on stderr, naming the faces and
-# the remedy; inspect warns from r and rho.
+# no vertex inside. With --no-refine every vertex becomes a sample, yet the long faces' middles
+# are 4.51 from all of them, beyond the link radius: the build succeeds and warns on stderr,
+# naming the faces and the remedy; inspect warns from r and rho.
 write_long_faced_strip_obj "$tmp/strip.obj"
-"$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" -q >"$tmp/out" 2>"$tmp/err" ||
+"$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" --no-refine -q >"$tmp/out" 2>"$tmp/err" ||
   fail "strip build failed: $(cat "$tmp/err")"
 [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "strip build: not one warning line: $(cat "$tmp/err")"; pass
 grep -q '^geoprox: warning: 11 faces (90% of the area) hold points with no sample within the link radius' "$tmp/err" ||
   fail "strip build warning: $(cat "$tmp/err")"; pass
-grep -q 'geoprox refine MESH' "$tmp/err" || fail "the warning names no remedy: $(cat "$tmp/err")"; pass
+grep -q 'without --no-refine' "$tmp/err" || fail "the warning names no remedy: $(cat "$tmp/err")"; pass
 grep -q '^r covering *4.51[0-9]* (vertices 0;' "$tmp/out" || fail "strip r: $(cat "$tmp/out")"; pass
 grep -q '^error bound *inf' "$tmp/out" || fail "strip bound: $(cat "$tmp/out")"; pass
 "$geoprox" inspect "$tmp/strip.geoprox" >"$tmp/out" 2>"$tmp/err" || fail "strip inspect failed"
 grep -q '^geoprox: warning: some points are up to 4.51[0-9]* from every sample, beyond the link radius' "$tmp/err" ||
   fail "strip inspect warning: $(cat "$tmp/err")"; pass
+
+# By default the build refines the strip internally instead: no warning, a finite bound, a
+# version-3 file that inspect describes, and queries in the strip's own ids (vertex 122 is its
+# corner (10, 1); face 210 is its last long face).
+"$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" -q >"$tmp/out" 2>"$tmp/err" ||
+  fail "strip refined build failed: $(cat "$tmp/err")"
+[ ! -s "$tmp/err" ] || fail "strip refined build warned: $(cat "$tmp/err")"; pass
+grep -q '^refined *to [0-9]* vertices, [0-9]* faces (edges <= [0-9.]*): the first build left 11 faces (90% of the area)' "$tmp/out" ||
+  fail "strip refined line: $(cat "$tmp/out")"; pass
+grep -q '^error bound *[0-9.]* (Theorem' "$tmp/out" || fail "strip refined bound: $(cat "$tmp/out")"; pass
+"$geoprox" inspect "$tmp/strip.geoprox" --verify "$tmp/strip.obj" >"$tmp/out" 2>"$tmp/err" ||
+  fail "strip refined inspect failed: $(cat "$tmp/err")"
+grep -q 'format version 3' "$tmp/out" && grep -q '^mesh *123 vertices, 211 faces' "$tmp/out" &&
+  grep -q '^refined *to ' "$tmp/out" && grep -q '^verify .* matches' "$tmp/out" ||
+  fail "strip refined inspect: $(cat "$tmp/out")"; pass
+printf 'v:0 v:122\nf:210:0.2:0.3:0.5 v:0\n' >"$tmp/pairs"
+"$geoprox" distance "$tmp/strip.obj" -g "$tmp/strip.geoprox" --pairs "$tmp/pairs" >"$tmp/out" 2>"$tmp/err" ||
+  fail "strip distance failed: $(cat "$tmp/err")"
+python3 - "$tmp/out" <<'PY' || fail "strip distances: $(cat "$tmp/out")"
+import math, sys
+got = [float(x) for x in open(sys.argv[1]).read().split()]
+# Straight lines on the flat strip; the graph answer is never below and here within 2%.
+# (face 210's corners: the grid's corner (1, 1), then (10, 0) and (10, 1))
+face_210 = (0.2 * 1 + 0.3 * 10 + 0.5 * 10, 0.2 * 1 + 0.3 * 0 + 0.5 * 1)
+for d, truth in zip(got, [math.hypot(10, 1), math.hypot(*face_210)]):
+    assert truth * (1 - 1e-12) <= d <= truth * 1.02, (d, truth)
+PY
+pass
+"$geoprox" field "$tmp/strip.obj" -g "$tmp/strip.geoprox" --source v:0 >"$tmp/out" 2>/dev/null ||
+  fail "strip field failed"
+[ "$(wc -l <"$tmp/out")" -eq 123 ] || fail "strip field: not one value per vertex of the strip"; pass
 
 # A bad option value is a usage error.
 set +e

@@ -525,10 +525,10 @@ std::string long_faced_strip_obj() {
   return obj.str();
 }
 
-TEST_F(AdminTest, AMeshWithGapsBetweenItsSamplesIsServedWithAWarning) {
+TEST_F(AdminTest, AMeshWithGapsBetweenItsSamplesIsServedOnARefinement) {
   // Every vertex of the strip is a sample, yet the middles of its long faces are 4.51 from all
-  // of them, beyond the link radius: the build's log line says so and names the remedy, and
-  // mesh.info shows r above rho. The mesh is served all the same.
+  // of them, beyond the link radius: the build refines the strip internally, says so in the
+  // log, and serves it in its own ids, with r under rho and no warning.
   write_file(data_.data_dir() / "meshes/strip.obj", long_faced_strip_obj());
   auto sink = std::make_shared<CaptureSink>();
   const auto previous = spdlog::default_logger();
@@ -543,19 +543,26 @@ TEST_F(AdminTest, AMeshWithGapsBetweenItsSamplesIsServedWithAWarning) {
   wait_for_state(server_->port(), "strip", "ready");
   ASSERT_TRUE(server_->server->registry().wait_idle(60s));
   const std::string log = sink->text();
-  EXPECT_NE(log.find("mesh strip: 11 faces (90% of the area) hold points with no sample within "
-                     "the link radius"),
+  EXPECT_NE(log.find("mesh strip: the first build left 11 faces (90% of the area) with no "
+                     "sample within the link radius; built on a refinement to "),
             std::string::npos)
       << log;
-  EXPECT_NE(log.find("geoprox refine"), std::string::npos) << log;
+  EXPECT_EQ(log.find("far off"), std::string::npos) << log;
   const json info = c.result("mesh.info", {{"mesh", "strip"}});
-  EXPECT_GT(info["covering_radius"].get<double>(), info["link_radius"].get<double>()) << info;
-  EXPECT_NEAR(info["covering_radius"].get<double>(), 99.25 / 18 - 1, 5e-3) << info;
+  EXPECT_EQ(info["vertices"], 123) << info;
+  EXPECT_EQ(info["faces"], 211) << info;
+  EXPECT_LT(info["covering_radius"].get<double>(), info["link_radius"].get<double>()) << info;
   // Across the long faces, from the grid's corner (0, 0) to (10, 1): never below the straight
-  // line on this flat strip.
+  // line on this flat strip, and close to it.
   const json answer = c.result("geodesic.distance",
                                {{"mesh", "strip"}, {"source", "v:0"}, {"target", "v:122"}});
   EXPECT_GE(answer["distance"].get<double>(), std::hypot(10.0, 1.0) * (1 - 1e-12)) << answer;
+  EXPECT_LE(answer["distance"].get<double>(), std::hypot(10.0, 1.0) * 1.02) << answer;
+  // A field has one value per vertex of the strip.
+  const json field =
+      c.result("geodesic.field", {{"mesh", "strip"}, {"source", "f:210:0.2:0.3:0.5"}});
+  ASSERT_TRUE(field.contains("distances")) << field;
+  EXPECT_EQ(field["distances"].size(), 123u) << field;
 }
 
 TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {

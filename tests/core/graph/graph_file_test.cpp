@@ -672,7 +672,7 @@ TEST_F(DamagedGraphFile, WrongMagicIsAForeignFile) {
 
 TEST_F(DamagedGraphFile, FutureVersionIsUnsupported) {
   std::vector<unsigned char> bytes = good_;
-  poke<std::uint32_t>(bytes, offsetof(GraphFileHeader, version), kGraphFileVersion + 1);
+  poke<std::uint32_t>(bytes, offsetof(GraphFileHeader, version), kGraphFileVersionRefined + 1);
   const std::string got = open_bytes(bytes);
   EXPECT_TRUE(starts_with(got, "UnsupportedVersion: ")) << got;
   EXPECT_NE(got.find("newer"), std::string::npos) << got;

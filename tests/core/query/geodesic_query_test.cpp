@@ -213,10 +213,13 @@ struct QueryEnv {
   const GeodesicQuery query;
 };
 
+/// A graph over the mesh as given, even where its faces outrun the samples (these tests look at
+/// the queries on such graphs; tests/core/graph/refined_surface_test.cpp at the refinement).
 ProximityGraphOptions graph_options(std::uint32_t samples, std::uint32_t neighbors) {
   ProximityGraphOptions o;
   o.num_samples = samples;
   o.neighbors = neighbors;
+  o.refine_long_faces = false;
   return o;
 }
 
