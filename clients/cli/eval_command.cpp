@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -56,6 +57,7 @@ struct EvalArgs {
   std::uint64_t seed = 1;
   bool json = false;
   bool fmm = true;
+  std::size_t worst = 0;  ///< --worst: pairs listed with the largest errors
   double refine_within = GeodesicQueryOptions{}.refine_within;  ///< --refine-within
   double exact_within = GeodesicQueryOptions{}.exact_within;    ///< --exact-within
 };
@@ -339,11 +341,35 @@ struct EvalFigures {
   double worst_field_exact = 0, worst_field_graph = 0;
   double bound = 0;  ///< the graph's error bound (infinite when there is none)
   std::size_t beyond_bound = 0;
+  std::vector<std::size_t> worst_pairs;  ///< --worst: pair indices, largest error first
 };
 
+/// "SOURCE TARGET" of pair `k`.
+std::string pair_text(const EvalPoints& points, std::size_t k) {
+  return points.sources[k / points.per_source].to_string() + " " +
+         points.targets[k / points.per_source][k % points.per_source].to_string();
+}
+
+/// The indices of the `count` pairs with the largest relative errors, largest first.
+std::vector<std::size_t> worst_pairs(const Measurements& m, std::size_t count) {
+  std::vector<std::pair<double, std::size_t>> errors;
+  for (std::size_t k = 0; k < m.approx.size(); ++k) {
+    if (m.reference[k] > 0 && std::isfinite(m.reference[k]) && std::isfinite(m.approx[k])) {
+      errors.emplace_back(std::abs(m.approx[k] - m.reference[k]) / m.reference[k], k);
+    }
+  }
+  count = std::min(count, errors.size());
+  std::partial_sort(errors.begin(), errors.begin() + static_cast<std::ptrdiff_t>(count),
+                    errors.end(), std::greater<>());
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < count; ++k) out.push_back(errors[k].second);
+  return out;
+}
+
 EvalFigures figures_of(const Measurements& m, const EvalPoints& points, const TriangleMesh& mesh,
-                       const ProximityGraphView& view) {
+                       const ProximityGraphView& view, std::size_t list_worst) {
   EvalFigures out;
+  out.worst_pairs = worst_pairs(m, list_worst);
   for (std::size_t k = 0; k < kFieldKinds; ++k) {
     out.kind_err[k] = error_stats(m.kind_approx[k], m.kind_reference[k]);
   }
@@ -364,10 +390,7 @@ EvalFigures figures_of(const Measurements& m, const EvalPoints& points, const Tr
   // The pair behind the worst error, so that it can be looked at (`geoprox distance`, `path`).
   out.worst = out.pair_err.worst == SIZE_MAX ? 0 : out.pair_err.worst;
   if (out.pair_err.worst != SIZE_MAX) {
-    const SurfacePoint& s = points.sources[out.worst / points.per_source];
-    const SurfacePoint& t = points.targets[out.worst / points.per_source]
-                                          [out.worst % points.per_source];
-    out.worst_pair = s.to_string() + " " + t.to_string();
+    out.worst_pair = pair_text(points, out.worst);
   }
   out.field_fmm_err = error_stats(m.field_fmm_values, m.field_reference);
   // Theorem 4.2 bounds every pair's relative error when it is finite.
@@ -397,7 +420,7 @@ class Report {
 };
 
 void add_text_report(Report& r, const EvalArgs& args, const LoadedGraph& g,
-                     const Measurements& m, const EvalFigures& f) {
+                     const EvalPoints& points, const Measurements& m, const EvalFigures& f) {
   const ProximityGraphView view = g.file.view();
   const double link_radius = g.query->link_radius();
   r.add("mesh            %s (%zu faces, %zu vertices)\n", args.mesh.c_str(), g.mesh.num_faces(),
@@ -422,6 +445,11 @@ void add_text_report(Report& r, const EvalArgs& args, const LoadedGraph& g,
     r.add("worst pair      %s  (exact %.9g, graph %.9g, %.2f link radii apart)\n",
           f.worst_pair.c_str(), m.reference[f.worst], m.approx[f.worst],
           m.reference[f.worst] / link_radius);
+  }
+  for (const std::size_t k : f.worst_pairs) {
+    r.add("  error %7.4f%%  exact %.9g  graph %.9g  %.2f link radii  %s\n",
+          100 * (m.approx[k] - m.reference[k]) / m.reference[k], m.reference[k], m.approx[k],
+          m.reference[k] / link_radius, pair_text(points, k).c_str());
   }
   if (args.fmm) {
     r.add("fast marching   mean %.4f%%  p50 %.4f%%  p99 %.4f%%  max %.4f%%\n",
@@ -516,9 +544,9 @@ void run_eval(const EvalArgs& args) {
   time_paths(*g.query, scratch, points, args.paths, m);
   time_fields(args, *g.query, scratch, points, refs, m);
 
-  const EvalFigures figures = figures_of(m, points, g.mesh, g.file.view());
+  const EvalFigures figures = figures_of(m, points, g.mesh, g.file.view(), args.worst);
   Report report;
-  add_text_report(report, args, g, m, figures);
+  add_text_report(report, args, g, points, m, figures);
   if (args.json) add_json_report(report, args, g, m, figures);
   write_output(report.text(), "");
 }
@@ -541,6 +569,9 @@ void add_eval_command(CLI::App& app, std::vector<Command>& commands) {
   eval->add_option("--paths", eval_args->paths, "Pairs also queried for their path");
   eval->add_option("--seed", eval_args->seed, "Seed of the random points (same seed, same points)");
   eval->add_flag("--json", eval_args->json, "End with one JSON line holding every figure");
+  eval->add_option("--worst", eval_args->worst,
+                   "Also list this many pairs with the largest errors: error, exact and graph "
+                   "distances, link radii apart, the points");
   eval->add_flag("!--no-fmm", eval_args->fmm, "Skip the fast-marching comparison");
   eval->add_option("--exact-within", eval_args->exact_within,
                    "Solve pairs whose graph answer is under this many link radii exactly, "

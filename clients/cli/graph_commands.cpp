@@ -168,8 +168,8 @@ void run_build(const BuildArgs& args) {
   add("mesh            %s (%zu vertices, %zu faces)\n", args.mesh.c_str(), mesh.num_vertices(),
       mesh.num_faces());
   if (!args.metric.empty()) add("metric          %s\n", args.metric.c_str());
-  add("samples         %u (m_P %u, sampling %s)\n", view.num_samples, view.neighbors,
-      sampling_name(graph.stats.sampling_used));
+  add("samples         %u (m_P %u, sampling %s; %zu at corners)\n", view.num_samples,
+      view.neighbors, sampling_name(graph.stats.sampling_used), graph.stats.corner_samples);
   add("graph edges     %zu (directed, symmetric)\n", view.num_edges());
   add("cover entries   %zu\n", view.cover_sample.size());
   add("R longest edge  %.6g\n", view.longest_edge);

@@ -100,6 +100,14 @@ inline constexpr double kPoorMeshLoQuality = 0.07;
 /// are least accurate.
 inline constexpr double kPoorMeshObtuseFraction = 0.5;
 
+/// A vertex is a corner, and a sample ahead of farthest-point sampling, when shortest paths can
+/// turn there by more than this (radians): a boundary vertex whose angle exceeds pi by more, or
+/// a saddle whose angle sum exceeds 2 pi by more. Graph paths around a corner with no sample on
+/// it are longer by a first-order share of the samples' spacing.
+inline constexpr double kCornerSampleTurn = 0.7853981633974483;  // pi / 4
+/// At most this fraction of n_P corners become samples (those turning most), on top of n_P.
+inline constexpr double kMaxCornerSampleFraction = 0.5;
+
 /// graph_size_for_error clamps m_P to [min, max]; its prediction then says what the clamped
 /// m_P gives.
 inline constexpr std::uint32_t kErrorFitMinNeighbors = 4;

@@ -13,6 +13,7 @@
 #include <optional>
 #include <queue>
 #include <string>
+#include <tuple>
 
 #include "core/base/errors.h"
 #include "core/base/tuning.h"
@@ -139,8 +140,22 @@ double ProximityGraphView::error_bound() const {
 
 std::string sparse_sampling_warning(const ProximityGraphView& graph,
                                     const ProximityGraphStats* stats) {
-  if (!(graph.link_radius > 0 && graph.covering_radius > graph.link_radius)) return {};
+  // Theorem 4.2 bounds the error only when rho > 2r; otherwise nothing does.
+  if (!(graph.link_radius > 0 && 2 * graph.covering_radius >= graph.link_radius)) return {};
   char text[640];
+  if (graph.covering_radius <= graph.link_radius) {
+    std::snprintf(text, sizeof text,
+                  "some points are up to %.6g from every sample (%s), %.2f link radii: Theorem "
+                  "4.2 bounds the graph's error only where the link radius %.6g exceeds twice "
+                  "that, and answers through such gaps can be off by several percent. Serve a "
+                  "refined mesh (geoprox refine MESH -o OUT.obj; docs/meshes.md) if long faces "
+                  "leave them, else build with more samples (--samples) or a larger link radius "
+                  "(--link-samples)",
+                  graph.covering_radius,
+                  stats ? stats->largest_empty_disk.to_string().c_str() : "the covering radius",
+                  graph.covering_radius / graph.link_radius, graph.link_radius);
+    return text;
+  }
   if (stats && stats->faces_beyond_link > 0) {
     std::snprintf(text, sizeof text,
                   "%zu faces (%.3g%% of the area) hold points with no sample within the link "
@@ -222,16 +237,43 @@ std::vector<std::uint32_t> spatial_order(const TriangleMesh& mesh,
   return order;
 }
 
+// Vertices where shortest paths can turn sharply, to be samples ahead of farthest-point
+// sampling: a geodesic bends only at a boundary vertex whose angle exceeds pi or at a saddle
+// (angle sum above 2 pi), by at most that excess. A graph path through a sample a distance d
+// beside such a corner is longer by up to about 2 d sin(excess / 2): first order in the samples'
+// spacing, where elsewhere graph paths are off by its square. Slits that repair cuts open and
+// the corners of a CAD model's openings turn paths by up to pi. Largest excess first, at most
+// `limit`, only vertices below `eligible`.
+std::vector<std::uint32_t> corner_vertices(const TriangleMesh& mesh,
+                                           const IntrinsicGeometry& geometry,
+                                           std::uint32_t eligible, std::size_t limit) {
+  std::vector<std::pair<double, std::uint32_t>> corners;
+  for (std::uint32_t v = 0; v < eligible; ++v) {
+    if (mesh.is_isolated_vertex(v)) continue;
+    const double flat = mesh.is_boundary_vertex(v) ? std::numbers::pi : 2 * std::numbers::pi;
+    const double excess = geometry.angle_sum(v) - flat;
+    if (excess > tuning::kCornerSampleTurn) corners.emplace_back(excess, v);
+  }
+  // Ties towards the lower id: deterministic.
+  std::sort(corners.begin(), corners.end(), [](const auto& a, const auto& b) {
+    return a.first > b.first || (a.first == b.first && a.second < b.second);
+  });
+  if (corners.size() > limit) corners.resize(limit);
+  std::vector<std::uint32_t> out;
+  out.reserve(corners.size());
+  for (const auto& [excess, v] : corners) out.push_back(v);
+  return out;
+}
+
 // Farthest-point sampling (paper §2.1): each new sample is the vertex farthest from all
 // previous ones; the distance field is only lowered where the new sample is closer, and the
 // farthest vertex comes from a lazy max-heap, not a scan. Vertices of a component with no sample
 // yet are infinitely far, so every component is seeded before any gets a second sample. Only
 // vertices [0, eligible) may become samples (ProximityGraphOptions::candidate_vertices).
-std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
-                                                  const IntrinsicGeometry& geometry,
-                                                  std::uint32_t count, std::uint32_t eligible,
-                                                  SamplingMethod method,
-                                                  const BuildProgress& progress) {
+std::vector<std::uint32_t> farthest_point_samples(
+    const TriangleMesh& mesh, const IntrinsicGeometry& geometry, std::uint32_t count,
+    std::uint32_t eligible, SamplingMethod method, std::span<const std::uint32_t> seeds,
+    double seed_radius, const BuildProgress& progress) {
   const std::uint32_t nv = static_cast<std::uint32_t>(mesh.num_vertices());
   std::vector<double> field(nv, kInfinity);
   std::vector<std::uint32_t> samples;
@@ -255,10 +297,23 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
     fmm.emplace(mesh, geometry);
   }
   std::vector<std::uint32_t> lowered;
-  while (samples.size() < count && !farthest.empty()) {
-    const auto [d, v] = farthest.top();
-    farthest.pop();
-    if (d != field[v] || d == 0) continue;  // stale entry, or already a sample
+  // The seeds first, in their order; then `count` farthest points.
+  std::size_t next_seed = 0;
+  const std::size_t total = seeds.size() + count;
+  while (samples.size() < total && (next_seed < seeds.size() || !farthest.empty())) {
+    std::uint32_t v = 0;
+    double d = kInfinity;
+    if (next_seed < seeds.size()) {
+      v = seeds[next_seed++];
+      if (field[v] == 0) continue;  // a seed listed twice
+      // Seeds are not the farthest points: their solves stop at seed_radius, beyond which the
+      // farthest points that follow lower the field themselves.
+      d = std::min(field[v], seed_radius);
+    } else {
+      std::tie(d, v) = farthest.top();
+      farthest.pop();
+      if (d != field[v] || d == 0) continue;  // stale entry, or already a sample
+    }
     samples.push_back(v);
     field[v] = 0;
     lowered.clear();
@@ -283,8 +338,8 @@ std::vector<std::uint32_t> farthest_point_samples(const TriangleMesh& mesh,
       if (field[u] > 0 && u < eligible) farthest.push({field[u], u});
     }
     if (progress &&
-        (samples.size() % tuning::kGraphProgressEvery == 0 || samples.size() == count)) {
-      progress("sampling", static_cast<double>(samples.size()) / count);
+        (samples.size() % tuning::kGraphProgressEvery == 0 || samples.size() == total)) {
+      progress("sampling", static_cast<double>(samples.size()) / total);
     }
   }
   // Restricted candidates may leave a component without a sample.
@@ -645,15 +700,26 @@ ProximityGraph build_on(const TriangleMesh& mesh, const IntrinsicGeometry& geome
   const MeshReport report = compute_mesh_report(mesh, geometry);
   graph.stats.components = report.components;
   graph.stats.sampling_used = choose_sampling(report, options.sampling);
-  graph.sample_vertex = farthest_point_samples(mesh, geometry, size.num_samples, size.eligible,
-                                               graph.stats.sampling_used, progress);
+  const std::vector<std::uint32_t> corners =
+      options.corner_samples
+          ? corner_vertices(
+                mesh, geometry, size.eligible,
+                static_cast<std::size_t>(tuning::kMaxCornerSampleFraction * size.num_samples))
+          : std::vector<std::uint32_t>{};
+  graph.sample_vertex =
+      farthest_point_samples(mesh, geometry, size.num_samples, size.eligible,
+                             graph.stats.sampling_used, corners, size.link_radius, progress);
+  // Corners are samples beyond n_P (fewer where they coincide with nothing left to sample).
+  graph.stats.corner_samples = std::min(corners.size(), graph.sample_vertex.size());
   graph.stats.sampling_seconds = seconds_since(start);
 
   const auto solves_start = std::chrono::steady_clock::now();
   const SampleSet samples(mesh, geometry, graph.sample_vertex);
-  // For the samples sampling found (fewer than asked where vertices coincide).
-  graph.link_radius =
-      link_radius_for(size.area, samples.size(), size.neighbors, options.link_samples);
+  // For the farthest-point samples sampling found (fewer than asked where vertices coincide):
+  // corner samples add to them where paths bend, not to the density elsewhere.
+  const std::size_t spread = std::max<std::size_t>(samples.size() - graph.stats.corner_samples, 1);
+  graph.link_radius = link_radius_for(size.area, static_cast<std::uint32_t>(spread), size.neighbors,
+                                      options.link_samples);
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   std::vector<LocalSolveResult> results =
       solve_locally(mesh, geometry, samples, graph.link_radius, size.neighbors, threads, progress);

@@ -52,6 +52,11 @@ struct ProximityGraphOptions {
   /// (scripts/subdivide_mesh.py): samples where the original mesh had vertices. Every
   /// component needs a candidate.
   std::uint32_t candidate_vertices = 0;
+  /// Make samples of the vertices where shortest paths turn sharply (boundary corners whose
+  /// angle exceeds pi, saddles, by more than tuning::kCornerSampleTurn), ahead of and on top of
+  /// the n_P farthest-point samples; the link radius stays that of the n_P. Default on: graph
+  /// paths around a corner with no sample on it are off by a share of the samples' spacing.
+  bool corner_samples = true;
   /// OpenMP threads for the local solves; 0 (default) uses OpenMP's default. The graph is
   /// identical for every thread count.
   int threads = 0;
@@ -150,6 +155,9 @@ struct ProximityGraphStats {
   double covering_seconds = 0;  ///< measuring r (core/geodesic/covering_radius.h)
   SamplingMethod sampling_used = SamplingMethod::FastMarching;
   std::size_t components = 0;
+  /// Samples placed at corners where shortest paths turn sharply, ahead of and on top of the
+  /// n_P farthest-point samples (tuning::kCornerSampleTurn).
+  std::size_t corner_samples = 0;
   /// The largest distance from a vertex to its nearest sample; r counts the faces' insides too.
   double vertex_covering_radius = 0;
   /// Centre of the largest empty disk: the point found farthest from every sample, r away.
@@ -203,11 +211,14 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
                                      const ProximityGraphOptions& options = {},
                                      const BuildProgress& progress = {});
 
-/// When some point of the surface has no sample within the link radius (r > rho: the paper's
-/// linking finds no sample there, and answers through such regions can be far off), what to
-/// tell whoever built or serves the graph; empty otherwise. With the build's stats (graph
-/// files do not keep them) it also names the faces' count, their share of the area and the
-/// farthest point.
+/// What to tell whoever built or serves the graph when Theorem 4.2 bounds none of its answers,
+/// empty otherwise. That is precisely when rho <= 2r (error_bound() infinite): some point of
+/// the surface is r >= rho / 2 from every sample, so the proof's chain of samples within R of
+/// each other need not exist, and answers through that gap can be far off. When r > rho the
+/// paper's linking finds no sample there at all; with the build's stats (graph files do not keep
+/// them) the warning then names the faces' count and share of the area, and either way the
+/// farthest point. Graphs that record no link radius (imported) get none: their bound is
+/// unknown, not refuted.
 std::string sparse_sampling_warning(const ProximityGraphView& graph,
                                     const ProximityGraphStats* stats = nullptr);
 

@@ -827,7 +827,9 @@ void check_link_radius(const TestMesh& m, const ProximityGraph& g, const std::st
   double area = 0;
   for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) area += m.geometry->face_area(f);
   const auto n = static_cast<std::uint32_t>(g.sample_vertex.size());
-  const double expected = std::sqrt(2.0 * g.neighbors * area / (std::numbers::pi * n));
+  // n_P: the farthest-point samples, not the corner samples on top of them.
+  const auto spread = static_cast<double>(n - g.stats.corner_samples);
+  const double expected = std::sqrt(2.0 * g.neighbors * area / (std::numbers::pi * spread));
   EXPECT_NEAR(g.link_radius, expected, 1e-12 * expected);
   ExactGeodesicSolver solver(mesh, *m.geometry);
   std::vector<std::int32_t> sample_of(mesh.num_vertices(), -1);
@@ -930,8 +932,14 @@ TEST(ProximityGraph, TwoComponentsGetAGraphEach) {
     for (std::uint32_t v : g.sample_vertex) (label[v] == 0 ? in_first : in_second)++;
     EXPECT_GT(in_first, 8u) << what;
     EXPECT_GT(in_second, 8u) << what;
-    // The second sample is the first vertex of the other component (infinitely far).
-    EXPECT_NE(label[g.sample_vertex[0]], label[g.sample_vertex[1]]) << what;
+    // The corner samples (the hole's corners) come first, in the first component; their solves
+    // stop at the link radius. Then the vertices still infinitely far come first: the rest of
+    // the first component (exact sampling) and the other one, before any second farthest point.
+    EXPECT_EQ(g.stats.corner_samples, 4u) << what;
+    const std::size_t first = g.stats.corner_samples;
+    for (std::size_t k = 0; k < first; ++k) EXPECT_EQ(label[g.sample_vertex[k]], 0) << what;
+    EXPECT_TRUE(label[g.sample_vertex[first]] == 1 || label[g.sample_vertex[first + 1]] == 1)
+        << what;
     // Connected within each component, no edge across (check_structure), exact edges.
     check_structure(m, g, what);
     check_edges_exact(m, g, /*directions=*/false, what);
