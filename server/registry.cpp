@@ -402,10 +402,12 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
     stats = graph.stats;
     if (graph.refined) {
       spdlog::info(
-          "mesh {}: the first build left {} faces ({:.3g}% of the area) with no sample within "
-          "the link radius; built on a refinement to {} vertices, {} faces (edges <= {:.6g}) "
-          "instead ({:.2f} s first build, {:.2f} s refining); queries stay in the mesh's ids",
-          entry->id(), graph.stats.unrefined_faces_beyond_link,
+          "mesh {}: the first build left points {:.6g} from every sample, over half its link "
+          "radius {:.6g} ({} faces, {:.3g}% of the area, beyond it); built on a refinement to "
+          "{} vertices, {} faces (edges <= {:.6g}) instead ({:.2f} s first build, {:.2f} s "
+          "refining); queries stay in the mesh's ids",
+          entry->id(), graph.stats.unrefined_covering_radius, graph.stats.unrefined_link_radius,
+          graph.stats.unrefined_faces_beyond_link,
           100 * graph.stats.unrefined_area_fraction_beyond_link,
           graph.refined->mesh().num_vertices(), graph.refined->mesh().num_faces(),
           graph.refined->max_edge_length(), graph.stats.unrefined_build_seconds,

@@ -160,7 +160,7 @@ void run_build(const BuildArgs& args) {
 
   const ProximityGraphView view = graph.view();
   std::string out;
-  char line[256];
+  char line[512];
   auto add = [&](const char* fmt, auto... values) {
     std::snprintf(line, sizeof line, fmt, values...);
     out += line;
@@ -179,9 +179,10 @@ void run_build(const BuildArgs& args) {
   if (graph.refined) {
     const TriangleMesh& refined = graph.refined->mesh();
     add("refined         to %zu vertices, %zu faces (edges <= %.6g): the first build left "
-        "%zu faces (%.3g%% of the area) beyond the link radius; queries, fields and paths "
-        "stay in the mesh's ids\n",
+        "points %.6g from every sample, over half its link radius %.6g (%zu faces, %.3g%% of "
+        "the area, beyond it); queries, fields and paths stay in the mesh's ids\n",
         refined.num_vertices(), refined.num_faces(), graph.refined->max_edge_length(),
+        graph.stats.unrefined_covering_radius, graph.stats.unrefined_link_radius,
         graph.stats.unrefined_faces_beyond_link,
         100 * graph.stats.unrefined_area_fraction_beyond_link);
   }

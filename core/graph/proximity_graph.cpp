@@ -147,10 +147,10 @@ std::string sparse_sampling_warning(const ProximityGraphView& graph,
     std::snprintf(text, sizeof text,
                   "some points are up to %.6g from every sample (%s), %.2f link radii: Theorem "
                   "4.2 bounds the graph's error only where the link radius %.6g exceeds twice "
-                  "that, and answers through such gaps can be off by several percent. Serve a "
-                  "refined mesh (geoprox refine MESH -o OUT.obj; docs/meshes.md) if long faces "
-                  "leave them, else build with more samples (--samples) or a larger link radius "
-                  "(--link-samples)",
+                  "that, and answers through such gaps can be off by several percent. Build "
+                  "without --no-refine if long faces leave them (the build then refines the mesh "
+                  "internally; not under a metric), else with more samples (--samples) or a "
+                  "larger link radius (--link-samples)",
                   graph.covering_radius,
                   stats ? stats->largest_empty_disk.to_string().c_str() : "the covering radius",
                   graph.covering_radius / graph.link_radius, graph.link_radius);
@@ -743,8 +743,12 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
                                      const BuildProgress& progress) {
   const auto start = std::chrono::steady_clock::now();
   ProximityGraph first = build_on(mesh, geometry, options, progress);
-  if (!options.refine_long_faces || first.stats.faces_beyond_link == 0 ||
-      !geometry.lengths_are_chords() ||
+  // Refine where Theorem 4.2 gives no bound (rho <= 2r), as sparse_sampling_warning says,
+  // because of the faces' insides: the vertices alone are close enough to the samples for it.
+  // (Where they are not, the samples are too few for the surface, and refining adds nothing.)
+  const bool faces_leave_gaps = 2 * first.covering_radius >= first.link_radius &&
+                                2 * first.stats.vertex_covering_radius < first.link_radius;
+  if (!options.refine_long_faces || !faces_leave_gaps || !geometry.lengths_are_chords() ||
       (options.candidate_vertices != 0 && options.candidate_vertices < mesh.num_vertices())) {
     return first;
   }
@@ -752,12 +756,15 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
   const auto refine_start = std::chrono::steady_clock::now();
   if (progress) progress("refining", 0);
   GraphRefinement refinement = refine_for_graph(mesh, options);
+  if (refinement.refined.edges_split == 0) return first;  // no edge past the limit
   auto refined = std::make_shared<const RefinedSurface>(mesh, std::move(refinement.refined),
                                                         refinement.max_edge_length);
   const double refine_seconds = seconds_since(refine_start);
   if (progress) progress("refining", 1);
   ProximityGraph graph = build_on(refined->mesh(), refined->geometry(), options, progress);
   graph.refined = std::move(refined);
+  graph.stats.unrefined_covering_radius = first.covering_radius;
+  graph.stats.unrefined_link_radius = first.link_radius;
   graph.stats.unrefined_faces_beyond_link = first.stats.faces_beyond_link;
   graph.stats.unrefined_area_fraction_beyond_link = first.stats.area_fraction_beyond_link;
   graph.stats.unrefined_build_seconds = first_seconds;

@@ -60,9 +60,10 @@ struct ProximityGraphOptions {
   /// OpenMP threads for the local solves; 0 (default) uses OpenMP's default. The graph is
   /// identical for every thread count.
   int threads = 0;
-  /// When the graph leaves points with no sample within the link radius (faces longer than the
-  /// samples' spacing), build again on a refinement of the mesh (core/graph/refined_surface.h)
-  /// that stays behind the mesh's own ids; default on. Only under the mesh's own lengths and
+  /// When the graph leaves points too far from every sample for Theorem 4.2's bound (rho <= 2r)
+  /// inside faces while its vertices are close enough (2 x their farthest distance < rho), build
+  /// again on a refinement of the mesh (core/graph/refined_surface.h) that stays behind the
+  /// mesh's own ids; default on. Only under the mesh's own lengths and
   /// with every vertex a candidate (a metric or candidate_vertices keep the first build, with
   /// sparse_sampling_warning's warning).
   bool refine_long_faces = true;
@@ -167,9 +168,11 @@ struct ProximityGraphStats {
   /// vertex (so no sample) inside, which graph paths cross badly (docs/queries.md).
   std::size_t faces_beyond_link = 0;
   double area_fraction_beyond_link = 0;
-  /// When the build refined the mesh (ProximityGraph::refined): what the first build, on the
-  /// mesh as given, left beyond the link radius, and the seconds of that build and of the
-  /// refinement (the phases above are the refined build's).
+  /// When the build refined the mesh (ProximityGraph::refined): the first build's r and rho,
+  /// what it left beyond the link radius, and the seconds of that build and of the refinement
+  /// (the phases above are the refined build's).
+  double unrefined_covering_radius = 0;
+  double unrefined_link_radius = 0;
   std::size_t unrefined_faces_beyond_link = 0;
   double unrefined_area_fraction_beyond_link = 0;
   double unrefined_build_seconds = 0;
