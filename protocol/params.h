@@ -130,6 +130,9 @@ struct AdminRegisterParams {
   std::string mesh;
   std::string mesh_file;
   std::optional<std::string> graph_file;  ///< default: chosen by the server
+  /// Load the mesh repaired (ids as in the file `geoprox repair` writes) instead of refusing a
+  /// mesh that is not an oriented manifold; for every load and build of this mesh.
+  bool repair = false;
   BuildOptions build;
 };
 

@@ -56,6 +56,7 @@ json params_json(const ServerAuthParams& p) { return {{"token", p.token}}; }
 json params_json(const AdminRegisterParams& p) {
   json out = {{"token", p.token}, {"mesh", p.mesh}, {"mesh_file", p.mesh_file}};
   if (p.graph_file) out["graph_file"] = *p.graph_file;
+  if (p.repair) out["repair"] = true;
   if (p.build != BuildOptions{}) out["build"] = p.build;
   return out;
 }

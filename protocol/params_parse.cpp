@@ -275,6 +275,7 @@ Params read_admin_register(const ObjectFields& fields, const Limits&) {
   parsed.mesh = read_mesh_id(fields);
   parsed.mesh_file = read_admin_path(fields, "mesh_file");
   if (fields.has("graph_file")) parsed.graph_file = read_admin_path(fields, "graph_file");
+  parsed.repair = fields.optional_bool("repair", false);
   parsed.build = read_build_options(fields);
   return parsed;
 }
@@ -403,7 +404,7 @@ Params parse_params(Method method, const json& params, const Limits& limits,
     case Method::ServerAuth:
       return parse({"token", "timeout_ms"}, read_server_auth);
     case Method::AdminRegister:
-      return parse({"token", "mesh", "mesh_file", "graph_file", "build", "timeout_ms"},
+      return parse({"token", "mesh", "mesh_file", "graph_file", "repair", "build", "timeout_ms"},
                    read_admin_register);
     case Method::AdminRebuild:
       return parse({"token", "mesh", "build", "timeout_ms"}, read_admin_rebuild);

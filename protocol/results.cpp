@@ -189,6 +189,19 @@ void to_json(json& out, const MeshListResult& result) {
   out = {{"meshes", std::move(meshes)}};
 }
 
+void to_json(json& out, const MeshRepairCounts& counts) {
+  out = {{"vertices_in", counts.vertices_in},
+         {"faces_in", counts.faces_in},
+         {"vertices_out", counts.vertices_out},
+         {"faces_out", counts.faces_out},
+         {"degenerate_faces_dropped", counts.degenerate_faces_dropped},
+         {"duplicate_faces_dropped", counts.duplicate_faces_dropped},
+         {"edges_cut", counts.edges_cut},
+         {"faces_flipped", counts.faces_flipped},
+         {"vertices_split", counts.vertices_split},
+         {"vertices_added", counts.vertices_added}};
+}
+
 void to_json(json& out, const MeshInfoResult& result) {
   out = json::object();
   write_summary(out, result.summary, "mesh");
@@ -199,6 +212,8 @@ void to_json(json& out, const MeshInfoResult& result) {
   out["build"] = result.build;
   out["covering_radius"] = optional_json(result.covering_radius);
   out["link_radius"] = optional_json(result.link_radius);
+  out["polygons"] = optional_json(result.polygons);
+  out["repair"] = optional_json(result.repair);
 }
 
 void to_json(json& out, const ServerInfoResult& result) {

@@ -96,6 +96,18 @@ struct MeshListResult {
   std::vector<MeshSummary> meshes;
 };
 
+/// What repair changed in a mesh file (the counts of core's MeshRepairReport).
+struct MeshRepairCounts {
+  std::uint64_t vertices_in = 0, faces_in = 0;
+  std::uint64_t vertices_out = 0, faces_out = 0;
+  std::uint64_t degenerate_faces_dropped = 0;  ///< faces that repeat a vertex index
+  std::uint64_t duplicate_faces_dropped = 0;   ///< same three vertices as an earlier face
+  std::uint64_t edges_cut = 0;       ///< edges with 3+ faces, or that no orientation fixes
+  std::uint64_t faces_flipped = 0;   ///< faces turned round
+  std::uint64_t vertices_split = 0;  ///< vertices whose faces formed several fans
+  std::uint64_t vertices_added = 0;  ///< copies appended after the file's vertices
+};
+
 struct MeshInfoResult {
   MeshSummary summary;
   std::uint64_t edges = 0;
@@ -106,6 +118,12 @@ struct MeshInfoResult {
   std::optional<double> covering_radius;  ///< the graph's r (its error bound grows with it)
   /// rho: where queries answer exactly, and the R of the bound 2r / (rho - 2r) (0: unknown)
   std::optional<double> link_radius;
+  /// Face records in the mesh file, when some of them were polygons split into triangles
+  /// (`faces` counts the triangles).
+  std::optional<std::uint64_t> polygons;
+  /// What repair changed, when the mesh in service was loaded with repair (all zero when it
+  /// needed none).
+  std::optional<MeshRepairCounts> repair;
 };
 
 struct ServerInfoResult {
@@ -189,6 +207,7 @@ void to_json(nlohmann::json& out, const FieldResult& result);
 void to_json(nlohmann::json& out, const MatrixResult& result);
 void to_json(nlohmann::json& out, const MeshSummary& summary);
 void to_json(nlohmann::json& out, const MeshListResult& result);
+void to_json(nlohmann::json& out, const MeshRepairCounts& counts);
 void to_json(nlohmann::json& out, const MeshInfoResult& result);
 void to_json(nlohmann::json& out, const ServerInfoResult& result);
 void to_json(nlohmann::json& out, const HealthResult& result);

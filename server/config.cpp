@@ -157,7 +157,7 @@ MeshConfig read_mesh(const json& m, const std::string& where, const Config& conf
                      std::set<std::string>& ids, std::set<fs::path>& graphs) {
   if (!m.is_object()) throw ConfigError(where + ": expected an object");
   const Reader r(m, where);
-  r.only({"id", "mesh", "graph", "metric", "samples", "neighbors", "link_samples",
+  r.only({"id", "mesh", "graph", "metric", "repair", "samples", "neighbors", "link_samples",
           "sampling"});
   MeshConfig mesh;
   r.string("id", mesh.id);
@@ -187,6 +187,7 @@ MeshConfig read_mesh(const json& m, const std::string& where, const Config& conf
     throw ConfigError(where + ".metric: must not be empty (leave it out for no metric)");
   }
   if (!metric_file.empty()) mesh.build.metric_path = resolve(config.data_dir, metric_file);
+  r.boolean("repair", mesh.build.repair);
   r.integer("samples", mesh.build.samples, 0, std::numeric_limits<std::uint32_t>::max());
   r.integer("neighbors", mesh.build.neighbors, 0, std::numeric_limits<std::uint32_t>::max());
   r.integer("link_samples", mesh.build.link_samples, 0,

@@ -34,6 +34,11 @@ struct BuildParams {
   /// build --metric`: the mesh's edge lengths come from it, for the build and for every load
   /// (a graph file built without it, or with another, is refused and rebuilt). Empty: none.
   std::filesystem::path metric_path = {};
+  /// Load the mesh repaired (core/mesh/mesh_repair.h; ids as in the file `geoprox repair`
+  /// writes), for the build and for every load, instead of refusing a mesh that is not an
+  /// oriented manifold (which then fails to load). A mesh that needs no repair is the same
+  /// either way, and so is its graph file.
+  bool repair = false;
 };
 
 /// One mesh of the config's "meshes" array, paths resolved.

@@ -19,14 +19,16 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "core/graph/graph_file.h"
+#include "core/graph/loaded_graph.h"
 #include "core/graph/proximity_graph.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh_io.h"
-#include "core/mesh/riemannian_metric.h"
+#include "core/mesh/mesh_repair.h"
 #include "server/config.h"
 #include "server/logging.h"
 #include "server/registry.h"
@@ -182,10 +184,15 @@ int run_check(const Config& config) {
               config.data_dir.string().c_str(), config.graph_dir.string().c_str());
   for (const MeshConfig& m : config.meshes) {
     try {
-      const TriangleMesh mesh = load_mesh(m.mesh_path.string());
-      const IntrinsicGeometry geometry = load_geometry(mesh, m.build.metric_path.string());
-      std::printf("mesh %s: %s OK (%zu vertices, %zu faces)\n", m.id.c_str(),
-                  m.mesh_path.string().c_str(), mesh.num_vertices(), mesh.num_faces());
+      const std::shared_ptr<const MeshData> data =
+          MeshData::load(m.mesh_path.string(), m.build.metric_path.string(),
+                         MeshLoadOptions{.repair = m.build.repair});
+      const TriangleMesh& mesh = data->mesh;
+      const IntrinsicGeometry& geometry = data->geometry;
+      std::printf("mesh %s: %s OK (%zu vertices, %zu faces%s%s)\n", m.id.c_str(),
+                  m.mesh_path.string().c_str(), mesh.num_vertices(), mesh.num_faces(),
+                  data->repair ? "; repaired: " : "",
+                  data->repair ? describe_repair_changes(*data->repair).c_str() : "");
       std::error_code ec;
       if (!std::filesystem::exists(m.graph_path, ec)) {
         std::printf("graph %s: %s missing (it will be built at start)\n", m.id.c_str(),

@@ -9,6 +9,7 @@
 
 #include "core/base/errors.h"
 #include "core/mesh/mesh_io.h"
+#include "core/mesh/mesh_repair.h"
 #include "core/graph/proximity_graph.h"
 #include "core/graph/refined_surface.h"
 #include "core/mesh/riemannian_metric.h"
@@ -296,6 +297,13 @@ void set_phase(std::mutex& mutex, std::optional<std::string>& phase, double& pro
   progress = fraction;
 }
 
+// A mesh refused for what repair fixes, loaded without repair: the error says how to serve it.
+std::string repair_hint(const std::exception& e, bool repair) {
+  const auto* error = dynamic_cast<const MeshError*>(&e);
+  if (repair || error == nullptr || !repair_fixes(error->code())) return {};
+  return " (\"repair\": true serves it repaired)";
+}
+
 // A graph whose samples leave points beyond its link radius is served, with a warning that
 // says where and what to do (the build's stats, when it was just built, say more).
 void warn_if_sparse(const std::string& id, const ProximityGraphView& graph,
@@ -317,7 +325,12 @@ void Registry::run_job(const Job& job) {
     if (!job.build.metric_path.empty()) {
       spdlog::info("mesh {}: metric {}", entry->id(), job.build.metric_path.string());
     }
-    data = MeshData::load(entry->mesh_path().string(), job.build.metric_path.string());
+    data = MeshData::load(entry->mesh_path().string(), job.build.metric_path.string(),
+                          MeshLoadOptions{.repair = job.build.repair});
+    if (data->repair) {
+      spdlog::info("mesh {}: repaired {}: {}", entry->id(), entry->mesh_path().filename().string(),
+                   describe_repair_changes(*data->repair));
+    }
     {
       std::lock_guard lock(entry->mutex_);
       entry->vertices_ = data->mesh.num_vertices();
@@ -325,7 +338,8 @@ void Registry::run_job(const Job& job) {
       entry->edges_ = data->mesh.num_edges();
     }
   } catch (const std::exception& e) {
-    fail(entry, entry->mesh_path().filename().string() + ": " + describe_exception(e));
+    fail(entry, entry->mesh_path().filename().string() + ": " + describe_exception(e) +
+                    repair_hint(e, job.build.repair));
     return;
   }
   // Temporaries of a write that a kill -9 interrupted: never opened, removed here.
@@ -568,7 +582,8 @@ MeshStatus Registry::register_mesh(const protocol::AdminRegisterParams& params) 
     throw ProtocolError(ErrorReason::BadMeshFile,
                         "params.graph_file " + quote(*params.graph_file) + " is a directory");
   }
-  const BuildParams build = apply_overrides(BuildParams{}, params.build);
+  BuildParams build = apply_overrides(BuildParams{}, params.build);
+  build.repair = params.repair;
   std::shared_ptr<MeshEntry> entry;
   {
     std::lock_guard lock(mutex_);
@@ -585,8 +600,8 @@ MeshStatus Registry::register_mesh(const protocol::AdminRegisterParams& params) 
     }
     entry = add_entry(std::make_shared<MeshEntry>(params.mesh, mesh_path, graph_path, build));
   }
-  spdlog::info("mesh {}: registered (mesh {}, graph {})", params.mesh, mesh_path.string(),
-               graph_path.string());
+  spdlog::info("mesh {}: registered (mesh {}{}, graph {})", params.mesh, mesh_path.string(),
+               build.repair ? ", repaired" : "", graph_path.string());
   enqueue(Job{entry, JobKind::Load, build});
   return entry->status();
 }

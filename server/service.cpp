@@ -11,6 +11,7 @@
 #include "core/apps/exponential_map.h"
 #include "core/query/geodesic_query.h"
 #include "core/apps/geodesic_spline.h"
+#include "core/mesh/mesh_repair.h"
 #include "core/mesh/surface_point.h"
 
 namespace geoprox::server {
@@ -305,6 +306,19 @@ protocol::SamplingMethod to_wire(SamplingMethod s) {
   return protocol::SamplingMethod::Auto;
 }
 
+protocol::MeshRepairCounts to_wire(const MeshRepairReport& report) {
+  return {report.vertices_in,
+          report.faces_in,
+          report.vertices_out,
+          report.faces_out,
+          report.degenerate_faces_dropped,
+          report.duplicate_faces_dropped,
+          report.edges_cut,
+          report.faces_flipped,
+          report.vertices_split,
+          report.vertices_added};
+}
+
 std::string display_path(const fs::path& path, const fs::path& data_dir) {
   const fs::path rel = path.lexically_relative(data_dir);
   if (!rel.empty() && *rel.begin() != "..") return rel.generic_string();
@@ -512,6 +526,9 @@ json Service::mesh_info(const protocol::MeshInfoParams& p, RequestContext& conte
   r.mesh_file = display_path(s.mesh_path, config_.data_dir);
   r.graph_file = display_path(s.graph_path, config_.data_dir);
   if (s.loaded) {
+    const MeshData& data = s.loaded->data();
+    if (!data.face_polygon.empty()) r.polygons = data.polygons;
+    if (data.repair) r.repair = to_wire(*data.repair);
     const GraphFileParams fp = s.loaded->file().params();
     r.graph_edges = s.loaded->file().counts().graph_edges;
     r.covering_radius = s.loaded->file().covering_radius();

@@ -1,7 +1,8 @@
 // Applications of the queries (paper §6), calling core directly:
 //   geoprox expmap MESH --graph G --source P --radius R [--exact] [--metric FILE] [--out FILE]
+//                  [--repair]
 //   geoprox spline MESH --graph G --type bezier|bspline --samples N --control P P P P ...
-//                  [--exact] [--metric FILE] [--out FILE]
+//                  [--exact] [--metric FILE] [--out FILE] [--repair]
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
@@ -17,25 +18,29 @@
 #include "core/query/geodesic_query.h"
 #include "core/apps/geodesic_spline.h"
 #include "core/graph/graph_file.h"
+#include "core/graph/loaded_graph.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh_io.h"
-#include "core/mesh/riemannian_metric.h"
 
 namespace geoprox::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// A mesh under its optional metric, and its graph file (checked against both) when given.
+/// A mesh (repaired with --repair) under its optional metric, and its graph file (checked
+/// against both) when given.
 struct LoadedMesh {
-  TriangleMesh mesh;
-  IntrinsicGeometry geometry;
+  std::shared_ptr<const MeshData> data;
+  const TriangleMesh& mesh;           ///< data->mesh
+  const IntrinsicGeometry& geometry;  ///< data->geometry
   std::optional<MappedGraphFile> file;
   std::unique_ptr<GeodesicQuery> query;
 
   LoadedMesh(const std::string& mesh_path, const std::string& metric_path,
-             const std::string& graph_path)
-      : mesh(load_mesh(mesh_path)), geometry(load_geometry(mesh, metric_path)) {
+             const std::string& graph_path, bool repair)
+      : data(load_command_mesh_data(mesh_path, metric_path, repair)),
+        mesh(data->mesh),
+        geometry(data->geometry) {
     if (graph_path.empty()) return;
     file = MappedGraphFile::open(graph_path);
     file->verify_mesh(mesh, geometry);
@@ -55,6 +60,7 @@ struct CommonArgs {
   std::string mesh, graph, metric, out;
   bool exact = false;
   bool out_given = false;
+  bool repair = false;
 };
 
 void add_common_options(CLI::App* command, CommonArgs& args) {
@@ -67,6 +73,7 @@ void add_common_options(CLI::App* command, CommonArgs& args) {
                       "Riemannian metric side file (docs/metrics.md) the graph was built with");
   command->add_option("-o,--out", args.out,
                       "Write to FILE (replaced atomically) instead of standard output");
+  add_repair_flag(*command, args.repair);
 }
 
 void check_graph_given(const CommonArgs& args) {
@@ -103,7 +110,7 @@ void run_expmap(const ExpmapArgs& args) {
     throw InvalidInput(ErrorCode::BadRadius, "--radius must be a non-negative number");
   }
   check_graph_given(args);
-  const LoadedMesh m(args.mesh, args.metric, args.exact ? "" : args.graph);
+  const LoadedMesh m(args.mesh, args.metric, args.exact ? "" : args.graph, args.repair);
   validate_point("--source", args.source, source, m.mesh);
   const auto start = Clock::now();
   const std::unique_ptr<ExponentialMap> map = m.make<ExponentialMap>();
@@ -140,7 +147,7 @@ void run_spline(const SplineArgs& args) {
   std::vector<SurfacePoint> control;
   for (const std::string& text : args.control) control.push_back(parse_point("--control", text));
   check_graph_given(args);
-  const LoadedMesh m(args.mesh, args.metric, args.exact ? "" : args.graph);
+  const LoadedMesh m(args.mesh, args.metric, args.exact ? "" : args.graph, args.repair);
   for (std::size_t i = 0; i < control.size(); ++i) {
     validate_point("--control", args.control[i], control[i], m.mesh);
   }

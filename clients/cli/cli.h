@@ -10,14 +10,20 @@
 //   client_commands.cpp       remote (distance, path, field, matrix, meshes, health, info on a
 //                             geoproxd daemon)
 // output.cpp writes results to standard output or, all or nothing, to a file; result_files.cpp
-// and render.cpp write PLY, OBJ and PNG files.
+// and render.cpp write PLY, OBJ and PNG files; mesh_loading.cpp loads mesh files as every
+// command does (--repair).
 #pragma once
 
 #include <functional>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/graph/loaded_graph.h"
 #include "core/mesh/mesh.h"
+#include "core/mesh/mesh_io.h"
+#include "core/mesh/mesh_repair.h"
 #include "core/mesh/surface_point.h"
 
 namespace CLI {
@@ -97,5 +103,19 @@ void add_client_commands(CLI::App& app, std::vector<Command>& commands);
 
 /// Prints `geoprox: <label>: <message>` as exactly one line on standard error.
 void print_diagnostic(const std::string& label, const std::string& message);
+
+/// --repair on a command that reads a mesh file: load it repaired (core/mesh/mesh_repair.h) instead
+/// of refusing a mesh that is not an oriented manifold. Ids are those of the file `geoprox repair`
+/// writes, so a graph built with --repair is queried with --repair.
+void add_repair_flag(CLI::App& command, bool& repair);
+/// When `report` changed something, says what on standard error, one line:
+/// "geoprox: repaired MESH: 2 edges cut, 5 vertices split (+5 copies)".
+void report_repair(const std::string& mesh_path, const std::optional<MeshRepairReport>& report);
+/// load_mesh_file with --repair's options, then report_repair.
+LoadedMeshFile load_command_mesh(const std::string& path, bool repair);
+/// MeshData::load (the mesh under its optional metric) with --repair's options, then
+/// report_repair.
+std::shared_ptr<MeshData> load_command_mesh_data(const std::string& path,
+                                                 const std::string& metric_path, bool repair);
 
 }  // namespace geoprox::cli

@@ -47,6 +47,7 @@ struct RemoteArgs {
   bool csv = false;
   std::string out;        ///< field: PLY file, path: OBJ file, written instead of stdout
   std::string mesh_file;  ///< field --out: local copy of the daemon's mesh (for its geometry)
+  bool repair = false;    ///< field --out: load --mesh-file repaired, as the daemon's "repair"
 };
 
 void add_common(CLI::App* command, Common& common) {
@@ -213,7 +214,9 @@ void write_result_file(const std::string& command, const RemoteArgs& args,
 void run_remote(const std::string& command, const RemoteArgs& args) {
   // The local mesh first: a wrong --mesh-file fails before anything is asked of the daemon.
   std::optional<TriangleMesh> mesh;
-  if (command == "field" && !args.out.empty()) mesh.emplace(load_mesh(args.mesh_file));
+  if (command == "field" && !args.out.empty()) {
+    mesh.emplace(load_command_mesh(args.mesh_file, args.repair).mesh);
+  }
   client::Options options;
   options.connect_timeout_ms = args.common.timeout_ms;
   options.read_timeout_ms = args.common.timeout_ms;
@@ -320,7 +323,8 @@ void add_client_commands(CLI::App& app, std::vector<Command>& commands) {
                             "reached); with --csv 'VERTEX,DISTANCE[,NEAREST_SOURCE]'.\n" +
                             field_ply_footer() +
                             "\nThe daemon sends distances only: --out needs --mesh-file, a local\n"
-                            "copy of the mesh file the daemon serves (same vertices, same order).");
+                            "copy of the mesh file the daemon serves (same vertices, same order;\n"
+                            "with --repair when the daemon repairs it).");
   field->add_option("MESH_ID", args->mesh, "Mesh id on the daemon")->required();
   field->add_option("SOURCE", args->sources, "Source point(s)")->required();
   field->add_option("--cutoff", args->cutoff, "Vertices farther than this are not reached")
@@ -330,6 +334,11 @@ void add_client_commands(CLI::App& app, std::vector<Command>& commands) {
       field->add_option("--mesh-file", args->mesh_file,
                         "Local copy of the daemon's mesh file: its geometry, for --out");
   field->add_option("-o,--out", args->out, "Write the mesh with the field as a PLY file instead")
+      ->needs(mesh_file);
+  field
+      ->add_flag("--repair", args->repair,
+                 "Load --mesh-file repaired, as a daemon whose mesh has \"repair\": true serves "
+                 "it")
       ->needs(mesh_file);
 
   CLI::App* matrix = add("matrix", "Distances from every source to every target",

@@ -50,6 +50,7 @@ std::string json_escape(const std::string& text) {
 
 struct EvalArgs {
   std::string metric;  ///< --metric: the side file the graph was built with
+  bool repair = false;  ///< --repair: the graph was built for the repaired mesh
   std::string mesh, graph;
   std::size_t pairs = 1000;
   std::size_t fields = 2;  ///< fields of each kind of source (FieldKind)
@@ -531,7 +532,8 @@ void run_eval(const EvalArgs& args) {
   GeodesicQueryOptions query_options;
   query_options.refine_within = args.refine_within;
   query_options.exact_within = args.exact_within;
-  const LoadedGraph g(args.mesh, args.graph, args.metric, query_options);
+  const LoadedGraph g(args.mesh, args.graph, args.metric, query_options, {.repair = args.repair});
+  report_repair(args.mesh, g.data->repair);
   const AreaSampler sampler(g.geometry);
   Rng rng{args.seed};
   const EvalPoints points = draw_points(args, g.mesh, sampler, rng);
@@ -561,6 +563,7 @@ void add_eval_command(CLI::App& app, std::vector<Command>& commands) {
       ->required();
   eval->add_option("GRAPH", eval_args->graph, "Graph file from 'geoprox build'")->required();
   add_metric_option(*eval, eval_args->metric);
+  add_repair_flag(*eval, eval_args->repair);
   eval->add_option("--pairs", eval_args->pairs, "Random point pairs (uniform by area)")
       ->check(CLI::PositiveNumber);
   eval->add_option("--fields", eval_args->fields,

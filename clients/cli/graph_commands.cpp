@@ -14,11 +14,11 @@
 #include "clients/cli/cli.h"
 #include "core/base/errors.h"
 #include "core/graph/graph_file.h"
+#include "core/graph/loaded_graph.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh_io.h"
 #include "core/graph/proximity_graph.h"
 #include "core/graph/refined_surface.h"
-#include "core/mesh/riemannian_metric.h"
 
 namespace geoprox::cli {
 
@@ -38,6 +38,7 @@ struct BuildArgs {
   std::string metric;  ///< Riemannian metric side file; empty: the mesh's own lengths
   bool no_refine = false;  ///< --no-refine: keep the first build even if it leaves gaps
   bool quiet = false;
+  bool repair = false;  ///< build on the repaired mesh (core/mesh/mesh_repair.h)
 };
 
 struct InspectArgs {
@@ -45,6 +46,7 @@ struct InspectArgs {
   std::string verify_mesh;
   std::string metric;
   bool verify_given = false;
+  bool repair = false;  ///< verify against the repaired mesh
 };
 
 const char* sampling_name(SamplingMethod m) {
@@ -123,8 +125,10 @@ void run_build(const BuildArgs& args) {
     options.sampling = SamplingMethod::Automatic;
   }
   const auto start = std::chrono::steady_clock::now();
-  const TriangleMesh mesh = load_mesh(args.mesh);
-  const IntrinsicGeometry geometry = load_geometry(mesh, args.metric);
+  const std::shared_ptr<const MeshData> data =
+      load_command_mesh_data(args.mesh, args.metric, args.repair);
+  const TriangleMesh& mesh = data->mesh;
+  const IntrinsicGeometry& geometry = data->geometry;
   std::optional<GraphSizeForError> for_error;
   if (args.target_error != 0) {
     for_error = graph_size_for_error(mesh.num_faces(), args.target_error);
@@ -144,7 +148,8 @@ void run_build(const BuildArgs& args) {
   }
   const auto write_start = std::chrono::steady_clock::now();
   GraphFileMetadata metadata;
-  metadata.source_mesh = args.mesh;
+  // Says, in `geoprox inspect`, that queries must load the mesh with --repair too.
+  metadata.source_mesh = args.repair ? args.mesh + " (repaired)" : args.mesh;
   write_graph_file(args.out, mesh, geometry, graph, metadata);
   if (!args.export_text.empty()) {
     std::ostringstream text;
@@ -167,6 +172,7 @@ void run_build(const BuildArgs& args) {
   };
   add("mesh            %s (%zu vertices, %zu faces)\n", args.mesh.c_str(), mesh.num_vertices(),
       mesh.num_faces());
+  if (data->repair) add("repair          %s\n", describe_repair_changes(*data->repair).c_str());
   if (!args.metric.empty()) add("metric          %s\n", args.metric.c_str());
   add("samples         %u (m_P %u, sampling %s; %zu at corners)\n", view.num_samples,
       view.neighbors, sampling_name(graph.stats.sampling_used), graph.stats.corner_samples);
@@ -264,11 +270,12 @@ void run_inspect(const InspectArgs& args) {
       max_degree);
   add("open time       %.2f ms\n", open_ms);
   if (args.verify_given) {
-    const TriangleMesh mesh = load_mesh(args.verify_mesh);
-    const IntrinsicGeometry geometry = load_geometry(mesh, args.metric);
-    file.verify_mesh(mesh, geometry);
-    add("verify          %s matches%s%s\n", args.verify_mesh.c_str(),
-        args.metric.empty() ? "" : " under the metric ", args.metric.c_str());
+    const std::shared_ptr<const MeshData> data =
+        load_command_mesh_data(args.verify_mesh, args.metric, args.repair);
+    file.verify_mesh(data->mesh, data->geometry);
+    add("verify          %s%s matches%s%s\n", args.verify_mesh.c_str(),
+        args.repair ? " (repaired)" : "", args.metric.empty() ? "" : " under the metric ",
+        args.metric.c_str());
   }
   write_output(out, "");
   if (const std::string warning = sparse_sampling_warning(view); !warning.empty()) {
@@ -314,6 +321,7 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
                   "samples' spacing (by default the build then refines the mesh internally, "
                   "answering in the mesh's own ids; docs/queries.md)");
   build->add_flag("-q,--quiet", build_args->quiet, "no progress display");
+  add_repair_flag(*build, build_args->repair);
   commands.push_back({build, [build_args] { run_build(*build_args); }});
 
   auto inspect_args = std::make_shared<InspectArgs>();
@@ -325,6 +333,11 @@ void add_graph_commands(CLI::App& app, std::vector<Command>& commands) {
       ->each([inspect_args](const std::string&) { inspect_args->verify_given = true; });
   inspect->add_option("--metric", inspect_args->metric,
                       "with --verify: the Riemannian metric the graph was built with")
+      ->needs("--verify");
+  inspect
+      ->add_flag("--repair", inspect_args->repair,
+                 "with --verify: check against the mesh repaired, as 'geoprox build --repair' "
+                 "built it")
       ->needs("--verify");
   commands.push_back({inspect, [inspect_args] { run_inspect(*inspect_args); }});
 }

@@ -8,6 +8,7 @@
 
 #include "clients/cli/cli.h"
 #include "core/base/errors.h"
+#include "core/mesh/mesh_repair.h"
 
 namespace geoprox::cli {
 
@@ -87,12 +88,8 @@ int main(int argc, char** argv) {
     return kExitInternal;
   } catch (const geoprox::Error& e) {
     std::string hint;
-    using geoprox::ErrorCode;
-    const ErrorCode code = e.code();
-    if (dynamic_cast<const geoprox::MeshError*>(&e) &&
-        (code == ErrorCode::NonManifoldVertex || code == ErrorCode::NonManifoldEdge ||
-         code == ErrorCode::InconsistentOrientation || code == ErrorCode::DegenerateFaceIndices)) {
-      hint = " ('geoprox repair MESH -o OUT.obj' writes a copy that loads)";
+    if (dynamic_cast<const geoprox::MeshError*>(&e) && geoprox::repair_fixes(e.code())) {
+      hint = " (--repair loads it repaired; 'geoprox repair MESH -o OUT.obj' writes that copy)";
     }
     print_diagnostic("error", std::string(e.what()) + " [" + e.reason() + "]" + hint);
     return kExitInput;

@@ -1,8 +1,9 @@
 // Offline commands of `geoprox`, which call geoprox::core directly (no daemon):
-//   geoprox info MESH
+//   geoprox info MESH [--repair]
 //   geoprox exact MESH --source POINT... [--radius R] [--to POINT] [--metric FILE] [--out FILE]
+//                 [--repair]
 //   geoprox repair MESH --out FILE [--map FILE] [--no-orient]
-//   geoprox refine MESH --out FILE [--max-edge L] [--map FILE]
+//   geoprox refine MESH --out FILE [--max-edge L] [--map FILE] [--repair]
 #include <CLI/CLI.hpp>
 #include <array>
 #include <cctype>
@@ -20,6 +21,7 @@
 #include "clients/cli/cli.h"
 #include "core/base/errors.h"
 #include "core/geodesic/exact_geodesic.h"
+#include "core/graph/loaded_graph.h"
 #include "core/mesh/intrinsic_geometry.h"
 #include "core/mesh/mesh.h"
 #include "core/mesh/mesh_io.h"
@@ -28,7 +30,6 @@
 #include "core/mesh/mesh_repair.h"
 #include "core/graph/proximity_graph.h"
 #include "core/mesh/mesh_report.h"
-#include "core/mesh/riemannian_metric.h"
 #include "core/mesh/surface_point.h"
 
 namespace geoprox::cli {
@@ -36,6 +37,7 @@ namespace {
 
 struct InfoArgs {
   std::string mesh;
+  bool repair = false;
 };
 
 struct RefineArgs {
@@ -43,6 +45,7 @@ struct RefineArgs {
   std::string out;          ///< .obj or .off
   std::string map;          ///< empty: no map written
   double max_edge = 0;      ///< 0: half the link radius of a default graph of the input
+  bool repair = false;
 };
 
 struct RepairArgs {
@@ -61,12 +64,12 @@ struct ExactArgs {
   std::string out;
   bool out_given = false;  ///< --out was on the command line (an empty path is an error)
   bool to_given = false;   ///< --to was on the command line (an empty point is an error)
+  bool repair = false;
 };
 
 void run_info(const InfoArgs& args) {
-  const TriangleMesh mesh = load_mesh(args.mesh);
-  const IntrinsicGeometry geometry(mesh);
-  std::string text = format_mesh_report(compute_mesh_report(mesh, geometry));
+  const std::shared_ptr<const MeshData> data = load_command_mesh_data(args.mesh, "", args.repair);
+  std::string text = format_mesh_report(compute_mesh_report(data->mesh, data->geometry));
   if (text.empty() || text.back() != '\n') text += '\n';
   write_output(text, "");
 }
@@ -93,8 +96,10 @@ void run_exact(const ExactArgs& args) {
     throw InvalidInput(ErrorCode::BadRadius, "--radius must be a non-negative number");
   }
 
-  const TriangleMesh mesh = load_mesh(args.mesh);
-  const IntrinsicGeometry geometry = load_geometry(mesh, args.metric);
+  const std::shared_ptr<const MeshData> data =
+      load_command_mesh_data(args.mesh, args.metric, args.repair);
+  const TriangleMesh& mesh = data->mesh;
+  const IntrinsicGeometry& geometry = data->geometry;
   std::vector<GeodesicSource> sources;
   sources.reserve(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -290,7 +295,7 @@ std::string format_refine_map(const RefinedMesh& refined, const std::string& sou
 
 void run_refine(const RefineArgs& args) {
   const bool obj = mesh_output_is_obj(args.out, "refine");
-  const TriangleMesh input = load_mesh(args.mesh);
+  const TriangleMesh input = load_command_mesh(args.mesh, args.repair).mesh;
   // By default the refinement a graph build makes (core/graph/refined_surface.h): edges of at
   // most half the link radius of a default graph of the output.
   GraphRefinement refinement = refine_for_graph(input, {}, args.max_edge);
@@ -361,6 +366,7 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
   auto info_args = std::make_shared<InfoArgs>();
   CLI::App* info = app.add_subcommand("info", "Print the validation report of a mesh");
   info->add_option("MESH", info_args->mesh, mesh_help)->required();
+  add_repair_flag(*info, info_args->repair);
   info->footer(exit_code_footer());
   commands.push_back({info, [info_args] { run_info(*info_args); }});
 
@@ -380,6 +386,7 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
   exact->add_option("-t,--to", exact_args->to, "Print the distance and path to this one point");
   exact->add_option("--metric", exact_args->metric,
                     "Riemannian metric side file (docs/metrics.md): distances are measured in it");
+  add_repair_flag(*exact, exact_args->repair);
   exact->add_option("-o,--out", exact_args->out,
                     "Write to FILE (replaced atomically) instead of standard output");
   exact->footer(
@@ -427,6 +434,7 @@ void add_offline_commands(CLI::App& app, std::vector<Command>& commands) {
   refine->add_option("--map", refine_args->map,
                      "Also write where each added vertex lies on MESH, and each split face's "
                      "parts with their corners' barycentrics");
+  add_repair_flag(*refine, refine_args->repair);
   refine->footer(
       "Longest-edge bisection (docs/meshes.md): every edge longer than the limit is halved,\n"
       "with the longest side of each face it touches, round after round until none is\n"

@@ -74,11 +74,13 @@ Vec3 position_of(const SurfacePoint& point, const TriangleMesh& mesh) {
 
 struct DistanceArgs {
   std::string metric;  ///< --metric: the side file the graph was built with
+  bool repair = false;  ///< --repair: the graph was built for the repaired mesh
   std::string mesh, graph, pairs;
 };
 
 void run_distance(const DistanceArgs& args) {
-  LoadedGraph g(args.mesh, args.graph, args.metric);
+  const LoadedGraph g(args.mesh, args.graph, args.metric, {}, {.repair = args.repair});
+  report_repair(args.mesh, g.data->repair);
   std::ifstream file;
   std::istream* in = &std::cin;
   if (args.pairs != "-") {
@@ -123,6 +125,7 @@ void run_distance(const DistanceArgs& args) {
 
 struct FieldArgs {
   std::string metric;  ///< --metric: the side file the graph was built with
+  bool repair = false;  ///< --repair: the graph was built for the repaired mesh
   std::string mesh, graph;
   std::vector<std::string> sources;
   double max_distance = kInfinity;
@@ -152,7 +155,8 @@ DistanceField compute_field(const LoadedGraph& g, const std::vector<SurfacePoint
 }
 
 void run_field(const FieldArgs& args) {
-  LoadedGraph g(args.mesh, args.graph, args.metric);
+  const LoadedGraph g(args.mesh, args.graph, args.metric, {}, {.repair = args.repair});
+  report_repair(args.mesh, g.data->repair);
   double elapsed = 0;
   const DistanceField field = compute_field(g, resolve_sources(g, args.sources),
                                             args.max_distance, args.threads, elapsed);
@@ -180,11 +184,13 @@ void run_field(const FieldArgs& args) {
 
 struct PathArgs {
   std::string metric;  ///< --metric: the side file the graph was built with
+  bool repair = false;  ///< --repair: the graph was built for the repaired mesh
   std::string mesh, graph, source, target, out;
 };
 
 void run_path(const PathArgs& args) {
-  LoadedGraph g(args.mesh, args.graph, args.metric);
+  const LoadedGraph g(args.mesh, args.graph, args.metric, {}, {.repair = args.repair});
+  report_repair(args.mesh, g.data->repair);
   const SurfacePoint s = resolve_point("--source", args.source, *g.query);
   const SurfacePoint t = resolve_point("--target", args.target, *g.query);
   QueryScratch scratch = g.query->make_scratch();
@@ -220,6 +226,7 @@ void run_path(const PathArgs& args) {
 
 struct RenderArgs {
   std::string metric;  ///< --metric: the side file the graph was built with
+  bool repair = false;  ///< --repair: the graph was built for the repaired mesh
   std::string mesh, graph;
   std::vector<std::string> sources;
   std::string target;
@@ -245,7 +252,8 @@ std::string check_view(const std::string& text) {
 }
 
 void run_render(const RenderArgs& args) {
-  LoadedGraph g(args.mesh, args.graph, args.metric);
+  const LoadedGraph g(args.mesh, args.graph, args.metric, {}, {.repair = args.repair});
+  report_repair(args.mesh, g.data->repair);
   const std::vector<SurfacePoint> sources = resolve_sources(g, args.sources);
   std::optional<SurfacePoint> target;
   if (!args.target.empty()) target = resolve_point("--target", args.target, *g.query);
@@ -306,9 +314,10 @@ void run_render(const RenderArgs& args) {
                    "wrote " + args.out + " (" + text + lines + path_note + decal_note + ")");
 }
 
-void add_graph_options(CLI::App& command, std::string& graph, std::string& metric) {
+void add_graph_options(CLI::App& command, std::string& graph, std::string& metric, bool& repair) {
   command.add_option("-g,--graph", graph, "Graph file from 'geoprox build'")->required();
   add_metric_option(command, metric);
+  add_repair_flag(command, repair);
 }
 
 constexpr const char* kMeshHelp = "Triangle mesh file the graph was built from";
@@ -322,7 +331,7 @@ void add_distance_command(CLI::App& app, std::vector<Command>& commands) {
   CLI::App* distance =
       app.add_subcommand("distance", "Graph distances between pairs of points (one per line)");
   distance->add_option("MESH", distance_args->mesh, mesh_help)->required();
-  add_graph_options(*distance, distance_args->graph, distance_args->metric);
+  add_graph_options(*distance, distance_args->graph, distance_args->metric, distance_args->repair);
   distance
       ->add_option("--pairs", distance_args->pairs,
                    "File of lines 'SOURCE TARGET' ('-' for standard input)")
@@ -341,7 +350,7 @@ void add_field_command(CLI::App& app, std::vector<Command>& commands) {
   CLI::App* field =
       app.add_subcommand("field", "Graph distance field: distance of every vertex from a source");
   field->add_option("MESH", field_args->mesh, mesh_help)->required();
-  add_graph_options(*field, field_args->graph, field_args->metric);
+  add_graph_options(*field, field_args->graph, field_args->metric, field_args->repair);
   field
       ->add_option("-s,--source", field_args->sources,
                    "Source point(s); with several, the distance to the nearest")
@@ -367,7 +376,7 @@ void add_path_command(CLI::App& app, std::vector<Command>& commands) {
   auto path_args = std::make_shared<PathArgs>();
   CLI::App* path = app.add_subcommand("path", "Shortest path between two points on a graph");
   path->add_option("MESH", path_args->mesh, mesh_help)->required();
-  add_graph_options(*path, path_args->graph, path_args->metric);
+  add_graph_options(*path, path_args->graph, path_args->metric, path_args->repair);
   path->add_option("-s,--source", path_args->source, "Source point")->required();
   path->add_option("-t,--target", path_args->target, "Target point")->required();
   path->add_option("-o,--out", path_args->out,
@@ -389,7 +398,7 @@ void add_render_command(CLI::App& app, std::vector<Command>& commands) {
   CLI::App* render_command = app.add_subcommand(
       "render", "Draw a PNG of the mesh coloured by a distance field, with iso-lines and a path");
   render_command->add_option("MESH", render_args->mesh, mesh_help)->required();
-  add_graph_options(*render_command, render_args->graph, render_args->metric);
+  add_graph_options(*render_command, render_args->graph, render_args->metric, render_args->repair);
   render_command
       ->add_option("-s,--source", render_args->sources,
                    "Source point(s) of the distance field (drawn as white dots)")

@@ -31,8 +31,9 @@ MappedGraphFile open_verified(const std::string& graph_path, const MeshData& dat
 }  // namespace
 
 LoadedGraph::LoadedGraph(const std::string& mesh_path, const std::string& graph_path,
-                         const std::string& metric_path, const GeodesicQueryOptions& options)
-    : data(MeshData::load(mesh_path, metric_path)),
+                         const std::string& metric_path, const GeodesicQueryOptions& options,
+                         const MeshLoadOptions& load_options)
+    : data(MeshData::load(mesh_path, metric_path, load_options)),
       mesh(data->mesh),
       geometry(data->geometry),
       file(open_verified(graph_path, *data)) {

@@ -46,10 +46,13 @@ struct MeshData {
 };
 
 struct LoadedGraph {
-  /// Loads the mesh and its geometry (MeshData::load) and maps the graph file; throws what
-  /// those throw, and the graph file's error when it was built for another mesh or metric.
+  /// Loads the mesh and its geometry (MeshData::load, repaired if `load_options` say so) and
+  /// maps the graph file; throws what those throw, and the graph file's error when it was built
+  /// for another mesh or metric (a graph built for the repaired mesh matches only the repaired
+  /// mesh).
   LoadedGraph(const std::string& mesh_path, const std::string& graph_path,
-              const std::string& metric_path = {}, const GeodesicQueryOptions& options = {});
+              const std::string& metric_path = {}, const GeodesicQueryOptions& options = {},
+              const MeshLoadOptions& load_options = {});
   /// Over a mesh already loaded and a graph file the caller has checked against it
   /// (MappedGraphFile::verify_mesh).
   LoadedGraph(std::shared_ptr<const MeshData> mesh_data, MappedGraphFile graph_file,

@@ -288,4 +288,37 @@ RepairedMesh repair_mesh(const std::vector<Vec3>& positions, const std::vector<T
   return out;
 }
 
+namespace {
+
+/// "1 edge cut", "2 edges cut": `count`, the noun in the number it takes, then `what`.
+std::string counted(std::size_t count, const char* one, const char* many, const char* what) {
+  return std::to_string(count) + ' ' + (count == 1 ? one : many) + what;
+}
+
+}  // namespace
+
+bool repair_fixes(ErrorCode code) {
+  return code == ErrorCode::NonManifoldVertex || code == ErrorCode::NonManifoldEdge ||
+         code == ErrorCode::InconsistentOrientation || code == ErrorCode::DegenerateFaceIndices;
+}
+
+std::string describe_repair_changes(const MeshRepairReport& report) {
+  if (report.unchanged()) return "nothing changed";
+  std::string text;
+  auto add = [&text](std::size_t count, const char* one, const char* many, const char* what) {
+    if (count == 0) return;
+    if (!text.empty()) text += ", ";
+    text += counted(count, one, many, what);
+  };
+  add(report.degenerate_faces_dropped, "degenerate face", "degenerate faces", " dropped");
+  add(report.duplicate_faces_dropped, "duplicate face", "duplicate faces", " dropped");
+  add(report.edges_cut, "edge", "edges", " cut");
+  add(report.faces_flipped, "face", "faces", " flipped");
+  if (report.vertices_split != 0) {
+    add(report.vertices_split, "vertex", "vertices", " split");
+    text += " (+" + counted(report.vertices_added, "copy", "copies", "") + ")";
+  }
+  return text;
+}
+
 }  // namespace geoprox

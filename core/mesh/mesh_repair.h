@@ -24,8 +24,10 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
+#include "core/base/errors.h"
 #include "core/mesh/mesh.h"
 
 namespace geoprox {
@@ -68,6 +70,16 @@ struct RepairedMesh {
   std::vector<std::uint8_t> flipped;
   MeshRepairReport report;
 };
+
+/// True for the reasons TriangleMesh refuses a mesh for that repair_mesh fixes
+/// (NonManifoldVertex, NonManifoldEdge, InconsistentOrientation, DegenerateFaceIndices): what
+/// error messages point to repair for.
+bool repair_fixes(ErrorCode code);
+
+/// What `report` says changed, counts that are not zero only, for one line of a log or of
+/// standard error: "3 duplicate faces dropped, 2 edges cut, 5 vertices split (+5 copies)";
+/// "nothing changed" when report.unchanged().
+std::string describe_repair_changes(const MeshRepairReport& report);
 
 /// Repairs a triangle soup (positions and faces as read from a file) as described above. The
 /// result is accepted by TriangleMesh unless a coordinate is not finite. Throws MeshError

@@ -396,6 +396,12 @@ TEST(AdminParams, Register) {
   EXPECT_EQ(params.mesh_file, "meshes/bunny.obj");
   EXPECT_EQ(params.graph_file, "graphs/bunny.geoprox");
   EXPECT_EQ(params.build, (BuildOptions{1300, 22, SamplingMethod::Exact}));
+  EXPECT_FALSE(params.repair);
+
+  const auto repaired = parse_as<AdminRegisterParams>(
+      Method::AdminRegister,
+      json::parse(R"({"token":"t","mesh":"pig","mesh_file":"meshes/pig.stl","repair":true})"));
+  EXPECT_TRUE(repaired.repair);
 
   const auto minimal = parse_as<AdminRegisterParams>(
       Method::AdminRegister, json::parse(R"({"token":"t","mesh":"b","mesh_file":"b..c.obj"})"));
@@ -437,6 +443,11 @@ TEST(AdminParams, Register) {
                                     "build":{"radius":2}})"),
                  ErrorReason::InvalidParams,
                  "params.build: unknown member \"radius\" (expected samples, neighbors, sampling)");
+  expect_refused(m, json::parse(R"({"token":"t","mesh":"b","mesh_file":"b.obj","repair":"yes"})"),
+                 ErrorReason::InvalidParams, "params.repair must be true or false, not a string");
+  expect_refused(m, json::parse(R"({"token":"t","mesh":"b","mesh_file":"b.obj",
+                                    "build":{"repair":true}})"),
+                 ErrorReason::InvalidParams, "params.build: unknown member \"repair\"");
   expect_refused(m, json::parse(R"({"token":"t","mesh":"b c","mesh_file":"b.obj"})"),
                  ErrorReason::InvalidParams, "is not a mesh id");
 }
@@ -487,6 +498,7 @@ TEST(ParamsJson, WhatClientsSendReadsBackTheSame) {
       {Method::ServerAuth, R"({"token":"t"})"},
       {Method::AdminRegister,
        R"({"build":{"neighbors":22,"sampling":"auto","samples":100},"graph_file":"g/b.geoprox","mesh":"b","mesh_file":"m/b.obj","token":"t"})"},
+      {Method::AdminRegister, R"({"mesh":"b","mesh_file":"m/b.obj","repair":true,"token":"t"})"},
       {Method::AdminRebuild, R"({"build":{"sampling":"fmm"},"mesh":"b","token":"t"})"},
       {Method::AdminUnregister, R"({"mesh":"b","token":"t"})"},
       {Method::AdminReload, R"({"mesh":"b","token":"t"})"},
@@ -628,13 +640,26 @@ TEST(Results, MeshListAndInfo) {
                       "graphs/spot.geoprox",
                       BuildOptions{1300, 22, SamplingMethod::Fmm},
                       0.070697,
-                      0.248016};
+                      0.248016,
+                      std::nullopt,
+                      std::nullopt};
   EXPECT_EQ(json(info), json::parse(R"({"mesh":"spot","mesh_version":"f95506b621abc471",
       "state":"ready","progress":1.0,"phase":null,"vertices":2930,"faces":5856,"samples":1300,
       "error":null,"edges":8784,"graph_edges":30268,"mesh_file":"meshes/spot.obj",
       "graph_file":"graphs/spot.geoprox","build":{"samples":1300,"neighbors":22,
-      "sampling":"fmm"},"covering_radius":0.070697,"link_radius":0.248016})"));
+      "sampling":"fmm"},"covering_radius":0.070697,"link_radius":0.248016,"polygons":null,
+      "repair":null})"));
   EXPECT_EQ(json(ready)["mesh"], "spot") << "admin.register/rebuild answer a summary with mesh";
+
+  // A mesh loaded with repair, from a file with polygons: both facts, every count by name.
+  info.polygons = 5000;
+  info.repair = MeshRepairCounts{2930, 5857, 2935, 5856, 0, 1, 2, 3, 4, 5};
+  const json repaired = info;
+  EXPECT_EQ(repaired["polygons"], 5000);
+  EXPECT_EQ(repaired["repair"], json::parse(R"({"vertices_in":2930,"faces_in":5857,
+      "vertices_out":2935,"faces_out":5856,"degenerate_faces_dropped":0,
+      "duplicate_faces_dropped":1,"edges_cut":2,"faces_flipped":3,"vertices_split":4,
+      "vertices_added":5})"));
 }
 
 TEST(Results, ServerInfoHealthMetrics) {

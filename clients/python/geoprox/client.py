@@ -265,11 +265,13 @@ class _Methods(Generic[T]):
         *,
         graph_file: Optional[str] = None,
         build: Optional[Mapping[str, Any]] = None,
+        repair: bool = False,
         token: Optional[str] = None,
         timeout_ms: Optional[int] = None,
     ) -> T:
         """``admin.register``: registers a mesh (files relative to the server's data
-        directory) and starts building or loading its graph; answers its summary at once."""
+        directory) and starts building or loading its graph; answers its summary at once.
+        ``repair=True`` serves the mesh file repaired (ids as ``geoprox repair`` writes)."""
         return self._submit(
             Request(
                 "admin.register",
@@ -280,6 +282,7 @@ class _Methods(Generic[T]):
                     mesh_file=mesh_file,
                     graph_file=graph_file,
                     build=None if build is None else dict(build),
+                    repair=True if repair else None,
                 ),
             )
         )

@@ -56,6 +56,17 @@ f 3 1 4
 f 5 6 7
 f 5 7 8
 """
+
+# Two triangles sharing only their first vertex: a non-manifold vertex that repair splits.
+BOWTIE_OBJ = """\
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v -1 0 0
+v -1 -1 0
+f 1 2 3
+f 1 4 5
+"""
 SPOT_VERTICES = 2930
 SPOT_FACES = 5856
 
@@ -211,6 +222,7 @@ def setUpModule() -> None:
     (root / "graphs").mkdir()
     shutil.copy(SPOT_OBJ, root / "data" / "meshes" / "spot.obj")
     (root / "data" / "meshes" / "two_components.obj").write_text(TWO_COMPONENTS_OBJ)
+    (root / "data" / "meshes" / "bowtie.obj").write_text(BOWTIE_OBJ)
     DAEMON = Daemon(binary, root, "main")
     with daemon().client() as client:
         client.wait_ready("spot", timeout=300)
@@ -547,6 +559,22 @@ class ErrorTest(LiveTestCase):
         finally:
             self.assertEqual(c.admin_unregister("two"), {"mesh": "two", "unregistered": True})
         self.check(Reason.UNKNOWN_MESH, -32001, lambda: c.distance("two", "v:0", "v:1"))
+
+    def test_register_with_repair(self) -> None:
+        c = self.client
+        c.admin_register("bowtie", "meshes/bowtie.obj", build={"samples": 6}, repair=True)
+        try:
+            (entry,) = c.wait_ready("bowtie", timeout=120)
+            self.assertEqual(entry["vertices"], 6)  # vertex 0 split: its copy is vertex 5
+            repair = c.mesh_info("bowtie")["repair"]
+            self.assertEqual(repair["vertices_split"], 1)
+            self.assertEqual(repair["vertices_added"], 1)
+            # Corner 0 of face 1 is the copy, one unit from vertex 3 and apart from vertex 0.
+            self.assertEqual(c.distance("bowtie", "f:1:1:0:0", "v:5")["distance"], 0.0)
+            self.assertAlmostEqual(c.distance("bowtie", "f:1:1:0:0", "v:3")["distance"], 1.0)
+            self.check(Reason.UNREACHABLE, -32010, lambda: c.distance("bowtie", "v:0", "v:3"))
+        finally:
+            c.admin_unregister("bowtie")
 
 
 class PipelineTest(LiveTestCase):

@@ -300,6 +300,35 @@ TEST(MeshRepair, DamagedGridsAndToriLoadAfterRepair) {
   EXPECT_LT(loaded_as_they_were, 2700u);
 }
 
+TEST(MeshRepair, DescribesWhatChangedInOneLine) {
+  MeshRepairReport report;
+  EXPECT_EQ(describe_repair_changes(report), "nothing changed");
+  report.duplicate_faces_dropped = 3;
+  report.edges_cut = 2;
+  report.vertices_split = 5;
+  report.vertices_added = 5;
+  EXPECT_EQ(describe_repair_changes(report),
+            "3 duplicate faces dropped, 2 edges cut, 5 vertices split (+5 copies)");
+  report = {};
+  report.degenerate_faces_dropped = 1;
+  report.faces_flipped = 1;
+  report.vertices_split = 1;
+  report.vertices_added = 2;
+  EXPECT_EQ(describe_repair_changes(report),
+            "1 degenerate face dropped, 1 face flipped, 1 vertex split (+2 copies)");
+}
+
+TEST(MeshRepair, FixesTheManifoldReasonsOnly) {
+  for (ErrorCode code : {ErrorCode::NonManifoldVertex, ErrorCode::NonManifoldEdge,
+                         ErrorCode::InconsistentOrientation, ErrorCode::DegenerateFaceIndices}) {
+    EXPECT_TRUE(repair_fixes(code)) << error_code_name(code);
+  }
+  for (ErrorCode code : {ErrorCode::EmptyMesh, ErrorCode::NonFiniteCoordinate,
+                         ErrorCode::VertexOutOfRange, ErrorCode::NonTriangleFace}) {
+    EXPECT_FALSE(repair_fixes(code)) << error_code_name(code);
+  }
+}
+
 TEST(MeshRepair, RefusesWhatIsNoMesh) {
   EXPECT_THROW(repair_mesh({{0, 0, 0}}, {}), MeshError);
   EXPECT_THROW(repair_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 3}}), MeshError);
