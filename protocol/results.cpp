@@ -202,6 +202,12 @@ void to_json(json& out, const MeshRepairCounts& counts) {
          {"vertices_added", counts.vertices_added}};
 }
 
+void to_json(json& out, const MeshRefinement& refinement) {
+  out = {{"vertices", refinement.vertices},
+         {"faces", refinement.faces},
+         {"max_edge_length", refinement.max_edge_length}};
+}
+
 void to_json(json& out, const MeshInfoResult& result) {
   out = json::object();
   write_summary(out, result.summary, "mesh");
@@ -214,6 +220,7 @@ void to_json(json& out, const MeshInfoResult& result) {
   out["link_radius"] = optional_json(result.link_radius);
   out["polygons"] = optional_json(result.polygons);
   out["repair"] = optional_json(result.repair);
+  out["refined"] = optional_json(result.refined);
 }
 
 void to_json(json& out, const ServerInfoResult& result) {

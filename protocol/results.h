@@ -108,6 +108,13 @@ struct MeshRepairCounts {
   std::uint64_t vertices_added = 0;  ///< copies appended after the file's vertices
 };
 
+/// The refinement a graph was built on (the build refines long faces internally; queries stay
+/// in the mesh's ids).
+struct MeshRefinement {
+  std::uint64_t vertices = 0, faces = 0;  ///< of the refined mesh the graph is over
+  double max_edge_length = 0;             ///< its longest edge allowed (mesh units)
+};
+
 struct MeshInfoResult {
   MeshSummary summary;
   std::uint64_t edges = 0;
@@ -124,6 +131,8 @@ struct MeshInfoResult {
   /// What repair changed, when the mesh in service was loaded with repair (all zero when it
   /// needed none).
   std::optional<MeshRepairCounts> repair;
+  /// When the graph is over a refinement of the mesh.
+  std::optional<MeshRefinement> refined;
 };
 
 struct ServerInfoResult {
@@ -208,6 +217,7 @@ void to_json(nlohmann::json& out, const MatrixResult& result);
 void to_json(nlohmann::json& out, const MeshSummary& summary);
 void to_json(nlohmann::json& out, const MeshListResult& result);
 void to_json(nlohmann::json& out, const MeshRepairCounts& counts);
+void to_json(nlohmann::json& out, const MeshRefinement& refinement);
 void to_json(nlohmann::json& out, const MeshInfoResult& result);
 void to_json(nlohmann::json& out, const ServerInfoResult& result);
 void to_json(nlohmann::json& out, const HealthResult& result);

@@ -416,9 +416,9 @@ void Registry::build_graph(const std::shared_ptr<MeshEntry>& entry,
     stats = graph.stats;
     if (graph.refined) {
       spdlog::info(
-          "mesh {}: the first build left points {:.6g} from every sample, over half its link "
+          "mesh {}: the first pass left points {:.6g} from every sample, over half its link "
           "radius {:.6g} ({} faces, {:.3g}% of the area, beyond it); built on a refinement to "
-          "{} vertices, {} faces (edges <= {:.6g}) instead ({:.2f} s first build, {:.2f} s "
+          "{} vertices, {} faces (edges <= {:.6g}) instead ({:.2f} s first pass, {:.2f} s "
           "refining); queries stay in the mesh's ids",
           entry->id(), graph.stats.unrefined_covering_radius, graph.stats.unrefined_link_radius,
           graph.stats.unrefined_faces_beyond_link,

@@ -529,6 +529,10 @@ json Service::mesh_info(const protocol::MeshInfoParams& p, RequestContext& conte
     const MeshData& data = s.loaded->data();
     if (!data.face_polygon.empty()) r.polygons = data.polygons;
     if (data.repair) r.repair = to_wire(*data.repair);
+    if (const auto from = s.loaded->file().refined_from()) {
+      r.refined = protocol::MeshRefinement{s.loaded->file().counts().vertices,
+                                           s.loaded->file().counts().faces, from->max_edge_length};
+    }
     const GraphFileParams fp = s.loaded->file().params();
     r.graph_edges = s.loaded->file().counts().graph_edges;
     r.covering_radius = s.loaded->file().covering_radius();

@@ -184,7 +184,7 @@ void run_build(const BuildArgs& args) {
   add("link radius     %.6g\n", view.link_radius);
   if (graph.refined) {
     const TriangleMesh& refined = graph.refined->mesh();
-    add("refined         to %zu vertices, %zu faces (edges <= %.6g): the first build left "
+    add("refined         to %zu vertices, %zu faces (edges <= %.6g): the first pass left "
         "points %.6g from every sample, over half its link radius %.6g (%zu faces, %.3g%% of "
         "the area, beyond it); queries, fields and paths stay in the mesh's ids\n",
         refined.num_vertices(), refined.num_faces(), graph.refined->max_edge_length(),
@@ -199,7 +199,7 @@ void run_build(const BuildArgs& args) {
   }
   add("time load       %.3f s\n", load_seconds);
   if (graph.refined) {
-    add("time first      %.3f s (the build on the mesh as given)\n",
+    add("time first      %.3f s (sampling and r on the mesh as given)\n",
         graph.stats.unrefined_build_seconds);
     add("time refining   %.3f s\n", graph.stats.refinement_seconds);
   }

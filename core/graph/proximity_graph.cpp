@@ -688,9 +688,20 @@ void measure_covering_radius(const TriangleMesh& mesh, const IntrinsicGeometry& 
 
 namespace {
 
-/// The paper's build on `mesh` as it is.
+/// Whether Theorem 4.2 gives no bound (rho <= 2r) because of the faces' insides: the vertices
+/// alone are close enough to the samples for it. (Where they are not, the samples are too few
+/// for the surface, and refining the mesh adds nothing.)
+bool faces_leave_gaps(const ProximityGraph& graph) {
+  return 2 * graph.covering_radius >= graph.link_radius &&
+         2 * graph.stats.vertex_covering_radius < graph.link_radius;
+}
+
+/// The paper's build on `mesh` as it is. With `stop_if_faces_leave_gaps`, returns before the
+/// local solves (no edges, no cover table) when faces_leave_gaps: the samples and r are known
+/// by then.
 ProximityGraph build_on(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
-                        const ProximityGraphOptions& options, const BuildProgress& progress) {
+                        const ProximityGraphOptions& options, const BuildProgress& progress,
+                        bool stop_if_faces_leave_gaps) {
   const auto start = std::chrono::steady_clock::now();
   const GraphSize size = resolve_graph_size(mesh, geometry, options);
   ProximityGraph graph;
@@ -713,13 +724,22 @@ ProximityGraph build_on(const TriangleMesh& mesh, const IntrinsicGeometry& geome
   graph.stats.corner_samples = std::min(corners.size(), graph.sample_vertex.size());
   graph.stats.sampling_seconds = seconds_since(start);
 
-  const auto solves_start = std::chrono::steady_clock::now();
   const SampleSet samples(mesh, geometry, graph.sample_vertex);
   // For the farthest-point samples sampling found (fewer than asked where vertices coincide):
   // corner samples add to them where paths bend, not to the density elsewhere.
   const std::size_t spread = std::max<std::size_t>(samples.size() - graph.stats.corner_samples, 1);
   graph.link_radius = link_radius_for(size.area, static_cast<std::uint32_t>(spread), size.neighbors,
                                       options.link_samples);
+
+  // r depends on the samples alone: measured before the local solves, which it may save.
+  const auto covering_start = std::chrono::steady_clock::now();
+  if (progress) progress("covering radius", 0);
+  measure_covering_radius(mesh, geometry, samples, size.area, graph);
+  if (progress) progress("covering radius", 1);
+  graph.stats.covering_seconds = seconds_since(covering_start);
+  if (stop_if_faces_leave_gaps && faces_leave_gaps(graph)) return graph;
+
+  const auto solves_start = std::chrono::steady_clock::now();
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   std::vector<LocalSolveResult> results =
       solve_locally(mesh, geometry, samples, graph.link_radius, size.neighbors, threads, progress);
@@ -727,12 +747,6 @@ ProximityGraph build_on(const TriangleMesh& mesh, const IntrinsicGeometry& geome
   fill_edges(results, graph);
   fill_cover_table(results, mesh.num_vertices(), graph);
   graph.stats.local_solve_seconds = seconds_since(solves_start);
-
-  const auto covering_start = std::chrono::steady_clock::now();
-  if (progress) progress("covering radius", 0);
-  measure_covering_radius(mesh, geometry, samples, size.area, graph);
-  if (progress) progress("covering radius", 1);
-  graph.stats.covering_seconds = seconds_since(covering_start);
   return graph;
 }
 
@@ -742,26 +756,24 @@ ProximityGraph build_proximity_graph(const TriangleMesh& mesh, const IntrinsicGe
                                      const ProximityGraphOptions& options,
                                      const BuildProgress& progress) {
   const auto start = std::chrono::steady_clock::now();
-  ProximityGraph first = build_on(mesh, geometry, options, progress);
-  // Refine where Theorem 4.2 gives no bound (rho <= 2r), as sparse_sampling_warning says,
-  // because of the faces' insides: the vertices alone are close enough to the samples for it.
-  // (Where they are not, the samples are too few for the surface, and refining adds nothing.)
-  const bool faces_leave_gaps = 2 * first.covering_radius >= first.link_radius &&
-                                2 * first.stats.vertex_covering_radius < first.link_radius;
-  if (!options.refine_long_faces || !faces_leave_gaps || !geometry.lengths_are_chords() ||
-      (options.candidate_vertices != 0 && options.candidate_vertices < mesh.num_vertices())) {
-    return first;
-  }
+  const bool may_refine =
+      options.refine_long_faces && geometry.lengths_are_chords() &&
+      (options.candidate_vertices == 0 || options.candidate_vertices >= mesh.num_vertices());
+  ProximityGraph first = build_on(mesh, geometry, options, progress, may_refine);
+  if (!may_refine || !faces_leave_gaps(first)) return first;
   const double first_seconds = seconds_since(start);
   const auto refine_start = std::chrono::steady_clock::now();
   if (progress) progress("refining", 0);
   GraphRefinement refinement = refine_for_graph(mesh, options);
-  if (refinement.refined.edges_split == 0) return first;  // no edge past the limit
+  if (refinement.refined.edges_split == 0) {  // no edge past the limit: the mesh as it is
+    return build_on(mesh, geometry, options, progress, /*stop_if_faces_leave_gaps=*/false);
+  }
   auto refined = std::make_shared<const RefinedSurface>(mesh, std::move(refinement.refined),
                                                         refinement.max_edge_length);
   const double refine_seconds = seconds_since(refine_start);
   if (progress) progress("refining", 1);
-  ProximityGraph graph = build_on(refined->mesh(), refined->geometry(), options, progress);
+  ProximityGraph graph = build_on(refined->mesh(), refined->geometry(), options, progress,
+                                  /*stop_if_faces_leave_gaps=*/false);
   graph.refined = std::move(refined);
   graph.stats.unrefined_covering_radius = first.covering_radius;
   graph.stats.unrefined_link_radius = first.link_radius;

@@ -168,9 +168,10 @@ struct ProximityGraphStats {
   /// vertex (so no sample) inside, which graph paths cross badly (docs/queries.md).
   std::size_t faces_beyond_link = 0;
   double area_fraction_beyond_link = 0;
-  /// When the build refined the mesh (ProximityGraph::refined): the first build's r and rho,
-  /// what it left beyond the link radius, and the seconds of that build and of the refinement
-  /// (the phases above are the refined build's).
+  /// When the build refined the mesh (ProximityGraph::refined): the first pass's r and rho (its
+  /// sampling and r, on the mesh as given: the local solves were skipped), what it left beyond
+  /// the link radius, and the seconds of that pass and of the refinement (the phases above are
+  /// the refined build's).
   double unrefined_covering_radius = 0;
   double unrefined_link_radius = 0;
   std::size_t unrefined_faces_beyond_link = 0;

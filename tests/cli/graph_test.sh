@@ -86,7 +86,7 @@ grep -q '^geoprox: warning: some points are up to 4.51[0-9]* from every sample, 
 "$geoprox" build "$tmp/strip.obj" -o "$tmp/strip.geoprox" -q >"$tmp/out" 2>"$tmp/err" ||
   fail "strip refined build failed: $(cat "$tmp/err")"
 [ ! -s "$tmp/err" ] || fail "strip refined build warned: $(cat "$tmp/err")"; pass
-grep -q '^refined *to [0-9]* vertices, [0-9]* faces (edges <= [0-9.]*): the first build left points 4.51[0-9]* from every sample, over half its link radius [0-9.]* (11 faces, 90% of the area, beyond it)' "$tmp/out" ||
+grep -q '^refined *to [0-9]* vertices, [0-9]* faces (edges <= [0-9.]*): the first pass left points 4.51[0-9]* from every sample, over half its link radius [0-9.]* (11 faces, 90% of the area, beyond it)' "$tmp/out" ||
   fail "strip refined line: $(cat "$tmp/out")"; pass
 grep -q '^error bound *[0-9.]* (Theorem' "$tmp/out" || fail "strip refined bound: $(cat "$tmp/out")"; pass
 "$geoprox" inspect "$tmp/strip.geoprox" --verify "$tmp/strip.obj" >"$tmp/out" 2>"$tmp/err" ||

@@ -543,7 +543,7 @@ TEST_F(AdminTest, AMeshWithGapsBetweenItsSamplesIsServedOnARefinement) {
   wait_for_state(server_->port(), "strip", "ready");
   ASSERT_TRUE(server_->server->registry().wait_idle(60s));
   const std::string log = sink->text();
-  EXPECT_NE(log.find("mesh strip: the first build left points 4.51"), std::string::npos) << log;
+  EXPECT_NE(log.find("mesh strip: the first pass left points 4.51"), std::string::npos) << log;
   EXPECT_NE(log.find("(11 faces, 90% of the area, beyond it); built on a refinement to "),
             std::string::npos)
       << log;
@@ -552,6 +552,9 @@ TEST_F(AdminTest, AMeshWithGapsBetweenItsSamplesIsServedOnARefinement) {
   EXPECT_EQ(info["vertices"], 123) << info;
   EXPECT_EQ(info["faces"], 211) << info;
   EXPECT_LT(info["covering_radius"].get<double>(), info["link_radius"].get<double>()) << info;
+  ASSERT_TRUE(info["refined"].is_object()) << info;
+  EXPECT_GT(info["refined"]["faces"].get<std::uint64_t>(), 211u) << info;
+  EXPECT_GT(info["refined"]["max_edge_length"].get<double>(), 0) << info;
   // Across the long faces, from the grid's corner (0, 0) to (10, 1): never below the straight
   // line on this flat strip, and close to it.
   const json answer = c.result("geodesic.distance",

@@ -138,7 +138,7 @@ TEST(RefinedGraph, TheBuildRefinesLongFacesAndAnswersInTheInputsIds) {
   ASSERT_NE(g.refined, nullptr);
   EXPECT_EQ(&g.refined->input(), &mesh);
   EXPECT_EQ(g.num_vertices, g.refined->mesh().num_vertices());
-  // The first build left the long faces' 90% of the area beyond the link radius; the refined
+  // The first pass left the long faces' 90% of the area beyond the link radius; the refined
   // one leaves nothing, so Theorem 4.2's bound holds.
   EXPECT_EQ(g.stats.unrefined_faces_beyond_link, 11u);
   EXPECT_NEAR(g.stats.unrefined_area_fraction_beyond_link, 0.9, 1e-12);
