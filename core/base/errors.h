@@ -33,8 +33,7 @@ namespace geoprox {
   X(GraphMismatch) X(InvalidGraph) X(NoGraph) X(NoCoverTable) X(MissingGraph)                  \
   /* Unusable meshes (MeshError). */                                                            \
   X(EmptyMesh) X(NonFiniteCoordinate) X(NonManifoldEdge) X(NonManifoldVertex)                   \
-  X(NonTriangleFace) X(InconsistentOrientation) X(DegenerateFaceIndices) X(BadEdgeLength)       \
-  X(TooLarge)                                                                                   \
+  X(InconsistentOrientation) X(DegenerateFaceIndices) X(BadEdgeLength) X(TooLarge)              \
   /* Files (FileError). */                                                                      \
   X(FileNotFound) X(NotAFile) X(ReadError) X(ParseError) X(UnsupportedFormat) X(WriteError)     \
   X(WriteFailed) X(MeshMismatch) X(EmptyFile) X(Truncated) X(CorruptHeader) X(CorruptGraph)     \

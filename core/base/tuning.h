@@ -51,6 +51,27 @@ inline constexpr double kSaddleAngleTolerance = 1e-9;
 /// detour and the frames' error (1e-16 / ratio of the face) are both about 1e-8 of the face.
 inline constexpr double kShortEdgeRatio = 1e-8;
 
+/// Polygon triangulation (core/mesh/polygon_triangulation.h): polygons of up to this many
+/// corners are triangulated by dynamic programming over their diagonals, O(n^3) time (about
+/// 10^5 triangles weighed at 64) and O(n^2) memory; larger ones by ear clipping, O(n^2).
+inline constexpr std::size_t kPolygonDynamicProgrammingCorners = 64;
+/// The most corners one face of a mesh file may have (more: TooLarge). Real files' polygons
+/// have a few to a few thousand corners, which ear clipping takes in milliseconds; this bounds
+/// its O(n^2) worst case (a star whose notches all crowd at its centre, every one in every
+/// ear's box) at about 10^9 point tests.
+inline constexpr std::size_t kMaxPolygonCorners = std::size_t{1} << 16;
+/// A polygon's corners lie on one line when none is farther than this fraction of the
+/// polygon's extent L (the largest distance from its corner 0) from the line through corner 0
+/// and the corner farthest from it; and it has no plane to project onto when its Newell normal
+/// (twice its area vector) is shorter than this times L^2. Ear clipping takes a corner whose
+/// turn has a sine below this for straight: no ear, whose triangle would be flat. Rounding of
+/// coordinates of that extent stays far below it.
+inline constexpr double kPolygonDegenerateRatio = 1e-12;
+/// Two triangulations of one polygon whose total areas differ by at most this times L^2 (L as
+/// above) have the same area: every triangulation of a planar polygon has its area, up to
+/// rounding, and the smallest angle decides between them instead.
+inline constexpr double kPolygonAreaTieTolerance = 1e-9;
+
 // ---- Geodesic solvers (core/geodesic) -------------------------------------------------------
 
 /// Exact solver: a window is dropped only when an alternative path is shorter by more than this

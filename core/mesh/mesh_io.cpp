@@ -1,5 +1,6 @@
 // Mesh loading: the format by extension, one strict reader per format (read_obj.cpp,
-// read_off.cpp, read_ply.cpp, read_stl.cpp), the same index checks for all, then TriangleMesh.
+// read_off.cpp, read_ply.cpp, read_stl.cpp), the same index checks and triangulation of
+// polygons for all, then TriangleMesh.
 // See core/mesh/mesh_io.h for the contract.
 #include "core/mesh/mesh_io.h"
 
@@ -48,7 +49,7 @@ FileScan scan_file(Format format, std::string_view text, const std::string& path
       scan = mesh_reading::scan_stl(text, path);
       break;
   }
-  mesh_reading::check_scanned_faces(scan, path);
+  mesh_reading::check_and_triangulate_faces(scan, path);
   return scan;
 }
 
@@ -88,7 +89,8 @@ MeshSoup load_mesh_soup(const std::string& path) {
   MeshSoup soup;
   soup.positions = std::move(scan.positions);
   soup.faces = std::move(scan.faces);
-  soup.polygons = soup.faces.size();
+  soup.face_polygon = std::move(scan.face_polygon);
+  soup.polygons = scan.face_records;
   return soup;
 }
 

@@ -10,7 +10,13 @@
 // skipped.
 //  - STL: corners are welded when their coordinates are equal as floats (bit-identical, or
 //    +0 and -0), numbered in order of first use; a facet with two welded corners is refused.
-//  - Polygons with more than three corners are refused (NonTriangleFace) naming the face.
+//  - Polygons (OBJ, OFF and PLY faces of more than three corners) are triangulated over their
+//    corners (core/mesh/polygon_triangulation.h). Triangle ids follow the file's face records
+//    in order: record k of c corners becomes c - 2 consecutive triangles, all of polygon k
+//    (MeshSoup::face_polygon). A file of triangles only loads exactly as it reads. A face of
+//    fewer than 3 corners, with a repeated corner, or with all its corners on one line is
+//    refused (DegenerateFaceIndices), and so is one of more than tuning::kMaxPolygonCorners
+//    corners (TooLarge).
 //  - PLY triangle strips (element `tristrips`, list `vertex_indices`, as some scanned meshes
 //    store them) are unrolled: strip s0 s1 s2 s3 ... gives (s0 s1 s2), (s2 s1 s3), (s2 s3 s4),
 //    ... (every other triangle turned round, to keep the strip's orientation); -1 ends a strip,
@@ -22,8 +28,8 @@
 // Errors (core/base/errors.h): FileError with FileNotFound (missing, a directory, unreadable),
 // UnsupportedFormat (unknown extension, binary OFF, PLY faces and strips together) or
 // ParseError (syntax); MeshError for content: EmptyMesh (a 0-byte file, or no faces),
-// NonTriangleFace, NonFiniteCoordinate, VertexOutOfRange, DegenerateFaceIndices, TooLarge, and
-// whatever TriangleMesh refuses (mesh.h), with the path prefixed.
+// NonFiniteCoordinate, VertexOutOfRange, DegenerateFaceIndices, TooLarge, and whatever
+// TriangleMesh refuses (mesh.h), with the path prefixed.
 //
 // Thread safety: the functions share no state; any number of loads may run at once.
 #pragma once
@@ -38,12 +44,14 @@
 
 namespace geoprox {
 
-/// Reads the mesh file at `path` into a TriangleMesh (ids in file order).
+/// Reads the mesh file at `path` into a TriangleMesh (ids in file order; polygons triangulated,
+/// their triangles numbered as above).
 TriangleMesh load_mesh(const std::string& path);
 
 /// The file's vertices and triangles in file order, read and checked as load_mesh reads them
-/// (format, syntax, indices in range, STL welding, strips, no polygons), but not yet made into
-/// a TriangleMesh: for core/mesh/mesh_repair.h, which repairs what TriangleMesh would refuse.
+/// (format, syntax, indices in range, STL welding, strips, polygons triangulated), but not yet
+/// made into a TriangleMesh: for core/mesh/mesh_repair.h, which repairs what TriangleMesh would
+/// refuse.
 struct MeshSoup {
   std::vector<Vec3> positions;
   std::vector<Triangle> faces;

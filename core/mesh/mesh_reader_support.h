@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -21,16 +22,40 @@
 
 namespace geoprox::mesh_reading {
 
+/// A face record of more than three corners, kept as read until every vertex is: a face may
+/// come before the vertices it uses (OBJ indices ahead, PLY elements in any order), and its
+/// triangulation needs their positions.
+struct ScannedPolygon {
+  std::size_t record = 0;        ///< the file's face id: face records counted from 0
+  std::size_t first_corner = 0;  ///< in FileScan::polygon_corners
+  std::size_t corners = 0;
+  std::size_t line = 0;  ///< 0 if binary
+};
+
 /// What a reader found in the file, in file order.
 struct FileScan {
   std::vector<Vec3> positions;  ///< as exact as the file: its digits, doubles, or STL's floats
+  /// The triangle records; after check_and_triangulate_faces, every triangle of the file's face
+  /// records in file order (a polygon's where it stands).
   std::vector<Triangle> faces;
-  std::vector<std::size_t> face_lines;  ///< line of each face record (0 if binary)
+  std::vector<std::size_t> face_lines;  ///< line of each face's record (0 if binary)
+  /// The face records of more than three corners, in file order, and their corners.
+  std::vector<ScannedPolygon> polygons;
+  std::vector<std::uint32_t> polygon_corners;
+  /// After check_and_triangulate_faces: the face record of each triangle, or empty when every
+  /// record is a triangle (MeshSoup::face_polygon); and the number of face records.
+  std::vector<std::uint32_t> face_polygon;
+  std::size_t face_records = 0;
+
+  /// Face records read so far (the id of the next one).
+  std::size_t records_read() const { return faces.size() + polygons.size(); }
+  /// Appends a face record of at least three corners (check_corner_count).
+  void add_face(std::span<const std::uint32_t> corners, std::size_t line);
 };
 
 /// The readers, one per format (read_obj.cpp, ...). Each throws FileError(ParseError) for
-/// syntax, MeshError for content (NonTriangleFace, NonFiniteCoordinate, VertexOutOfRange, ...).
-/// Indices are range-checked by check_scanned_faces afterwards, except where a reader says so.
+/// syntax, MeshError for content (NonFiniteCoordinate, VertexOutOfRange, ...). Indices are
+/// range-checked by check_and_triangulate_faces afterwards, except where a reader says so.
 FileScan scan_obj(std::string_view text, const std::string& path);
 FileScan scan_off(std::string_view text, const std::string& path);
 FileScan scan_ply(std::string_view text, const std::string& path);
@@ -45,12 +70,12 @@ std::string where(const std::string& path, std::size_t line);
                                     const std::string& what);
 [[noreturn]] void throw_mesh_error(ErrorCode code, const std::string& path, std::size_t line,
                                    const std::string& what);
-[[noreturn]] void throw_non_triangle(const std::string& path, std::size_t line, std::size_t face,
-                                     std::size_t corners);
 /// "(x, y, z)" to 9 significant digits.
 std::string describe_point(double x, double y, double z);
 /// "face F (vertices A B C)".
 std::string describe_face(std::size_t face, const Triangle& t);
+/// "face F (vertices A B C D ...)", the first few corners of a polygon.
+std::string describe_polygon(std::size_t face, std::span<const std::uint32_t> corners);
 
 // ---- Strict number syntax: the whole token must be a number (a leading '+' is allowed).
 
@@ -169,9 +194,16 @@ Vec3 parse_coordinates(std::string_view x, std::string_view y, std::string_view 
 std::uint32_t checked_index(long long index, std::size_t face, const std::string& path,
                             std::size_t line);
 
-/// Checks indices against the vertex count and repeated corners, in face order, as
-/// TriangleMesh does, but naming the line.
-void check_scanned_faces(const FileScan& scan, const std::string& path);
+/// Refuses a face record of fewer than 3 corners (DegenerateFaceIndices) or of more than
+/// tuning::kMaxPolygonCorners (TooLarge), as soon as a reader knows its corner count.
+void check_corner_count(std::size_t corners, std::size_t face, const std::string& path,
+                        std::size_t line);
+
+/// Checks every face record's indices against the vertex count and for repeated corners, in
+/// file order, as TriangleMesh does but naming the line; triangulates the polygons
+/// (core/mesh/polygon_triangulation.h; DegenerateFaceIndices for one whose corners lie on a
+/// line) into scan.faces, where their records stand; fills face_polygon and face_records.
+void check_and_triangulate_faces(FileScan& scan, const std::string& path);
 
 /// Reserves room for records a header announces, but no more than the text could hold at
 /// `min_record_bytes` each: a header's counts are not trusted with memory before the records

@@ -1,4 +1,5 @@
-// OBJ reader: line based; only `v` and `f` lines matter for geometry. Every other line (`vt`
+// OBJ reader: line based; only `v` and `f` lines matter for geometry (an `f` line of any number
+// of corners, 3 or more, is one face record). Every other line (`vt`
 // with one, two or three values, `vn`, `vp`, `usemtl`, `mtllib`, `o`, `g`, `s`, `l`, ...) is
 // skipped unread, as are the texture and normal indices of a face's corners.
 #include <algorithm>
@@ -57,12 +58,11 @@ FileScan scan_obj(std::string_view text, const std::string& path) {
       scan.positions.push_back(parse_coordinates(tokens[1], tokens[2], tokens[3],
                                                  scan.positions.size(), path, lines.line()));
     } else if (tokens[0] == "f") {
-      const std::size_t face = scan.faces.size();
+      const std::size_t face = scan.records_read();
       const std::vector<std::uint32_t> corners =
           read_obj_face(tokens, face, scan.positions.size(), path, lines.line());
-      if (corners.size() != 3) throw_non_triangle(path, lines.line(), face, corners.size());
-      scan.faces.push_back({corners[0], corners[1], corners[2]});
-      scan.face_lines.push_back(lines.line());
+      check_corner_count(corners.size(), face, path, lines.line());
+      scan.add_face(corners, lines.line());
     }
   }
   return scan;

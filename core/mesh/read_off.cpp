@@ -1,8 +1,8 @@
 // OFF reader (ascii; 3D only). The first line is the header ([ST][C][N]OFF, alone on its line),
 // the next holds the counts (vertices, faces, edges). A vertex record is its line: three
 // coordinates, three normal components with N, then texture coordinates and colour, which are
-// skipped. Face records are whitespace-separated values (the count, then the corners), so they
-// may span lines; values after the corners are a colour and need a C header.
+// skipped. Face records are whitespace-separated values (the count, 3 or more, then the
+// corners), so they may span lines; values after the corners are a colour and need a C header.
 #include <algorithm>
 
 #include "core/base/tuning.h"
@@ -125,6 +125,7 @@ void read_off_vertices(Tokenizer& tokens, std::size_t count, const OffHeader& he
 
 void read_off_faces(Tokenizer& tokens, std::size_t count, const OffHeader& header,
                     const std::string& path, FileScan& scan) {
+  std::vector<std::uint32_t> record;  // the corners of one face record
   for (std::size_t f = 0; f < count; ++f) {
     const std::string_view count_token = tokens.next();
     if (count_token.empty()) {
@@ -141,9 +142,10 @@ void read_off_faces(Tokenizer& tokens, std::size_t count, const OffHeader& heade
                             "found '" +
                             std::string(count_token) + "'");
     }
-    if (*corners != 3) throw_non_triangle(path, line, f, static_cast<std::size_t>(*corners));
-    Triangle t{};
-    for (std::uint32_t& corner : t) {
+    const std::size_t corner_count = static_cast<std::size_t>(*corners);
+    check_corner_count(corner_count, f, path, line);
+    record.clear();
+    for (std::size_t i = 0; i < corner_count; ++i) {
       const std::string_view token = tokens.next();
       const std::optional<long long> index = parse_integer(token);
       if (!index) {
@@ -151,18 +153,17 @@ void read_off_faces(Tokenizer& tokens, std::size_t count, const OffHeader& heade
             path, tokens.line(),
             "face " + std::to_string(f) + ": '" + std::string(token) + "' is not a vertex index");
       }
-      corner = checked_index(*index, f, path, tokens.line());
+      record.push_back(checked_index(*index, f, path, tokens.line()));
     }
     if (header.has_colours) {
       check_off_colour(tokens.skip_rest_of_line(), false, "face", f, path, tokens.line());
     } else if (tokens.more_on_this_line()) {
       throw_parse_error(path, tokens.line(),
-                        "face " + std::to_string(f) +
-                            " has values after its 3 corners; "
-                            "face colours need a COFF header");
+                        "face " + std::to_string(f) + " has values after its " +
+                            std::to_string(corner_count) +
+                            " corners; face colours need a COFF header");
     }
-    scan.faces.push_back(t);
-    scan.face_lines.push_back(line);
+    scan.add_face(record, line);
   }
 }
 

@@ -2,8 +2,8 @@
 // read line by line and must be exactly well-formed; then every value of the body is read in
 // header order, so that elements and properties geoprox does not use (normals, colours, edges,
 // materials, lists of any kind) are stepped over exactly. Faces come from element `face` (list
-// `vertex_indices` or `vertex_index`, triangles only) or element `tristrips`, unrolled by the
-// rule of core/mesh/mesh_io.h.
+// `vertex_indices` or `vertex_index`, of 3 or more corners) or element `tristrips`, unrolled by
+// the rule of core/mesh/mesh_io.h.
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -440,14 +440,13 @@ class PlyBodyReader {
 
   void read_face_list(const PlyProperty& property, const PlyElement& element, std::size_t i,
                       long long count, std::size_t record_line) {
-    if (count != 3) throw_non_triangle(path_, values_.line(), i, static_cast<std::size_t>(count));
-    Triangle t{};
-    for (std::uint32_t& corner : t) {
+    check_corner_count(static_cast<std::size_t>(count), i, path_, values_.line());
+    corners_.clear();
+    for (long long k = 0; k < count; ++k) {
       const long long index = next_integer(property.type, element, i, "a vertex index");
-      corner = checked_index(index, i, path_, values_.line());
+      corners_.push_back(checked_index(index, i, path_, values_.line()));
     }
-    scan_.faces.push_back(t);
-    scan_.face_lines.push_back(record_line);
+    scan_.add_face(corners_, record_line);
   }
 
   void read_strip_list(const PlyProperty& property, const PlyElement& element, std::size_t i,
@@ -514,6 +513,7 @@ class PlyBodyReader {
   const std::string& path_;
   PlyValueReader values_;
   FileScan scan_;
+  std::vector<std::uint32_t> corners_;  ///< of the face record being read
   double value_ = 0;         ///< the last value read
   std::string value_text_;   ///< its ascii token (empty for binary data)
 };

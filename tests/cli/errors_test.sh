@@ -31,8 +31,10 @@ printf 'this is not a mesh\n' >"$tmp/garbage.xyz"
 expect_geoprox_error_matching 2 'garbage\.xyz' info "$tmp/garbage.xyz"
 : >"$tmp/empty.obj"
 expect_geoprox_error_matching 2 '[Ee]mpty|no (faces|vertices)' info "$tmp/empty.obj"
-printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3 4\n' >"$tmp/quad.obj"
-expect_geoprox_error_matching 2 'face 0|triang|corner' info "$tmp/quad.obj"
+# Polygons load triangulated, but not one whose corners all lie on a line.
+printf 'v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3 4\n' >"$tmp/line.obj"
+expect_geoprox_error_matching 2 'line\.obj:5: face 0 \(vertices 0 1 2 3\).*one line.*DegenerateFaceIndices' \
+  info "$tmp/line.obj"
 printf 'v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n' >"$tmp/nan.obj"
 expect_geoprox_error_matching 2 '[Nn]a[Nn]|finite' exact "$tmp/nan.obj" --source v:0
 

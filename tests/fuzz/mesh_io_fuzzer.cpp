@@ -1,6 +1,7 @@
-// libFuzzer target: the mesh loaders (core/mesh/mesh_io.h) on hostile files, then what `geoprox info`
-// computes from a mesh that loaded (core/mesh/mesh_report.h), what `geoprox refine` makes of it
-// (core/mesh/mesh_refinement.h), and what `geoprox repair` makes of the file (core/mesh/mesh_repair.h).
+// libFuzzer target: the mesh loaders (core/mesh/mesh_io.h) on hostile files, then what `geoprox
+// info` computes from a mesh that loaded (core/mesh/mesh_report.h), what `geoprox refine` makes of
+// it (core/mesh/mesh_refinement.h), and what `geoprox repair` makes of the file
+// (core/mesh/mesh_repair.h).
 //
 // Input: one selector byte, then the file's bytes. The selector picks the extension, which is
 // what picks the reader: 0 .obj, 1 .off, 2 .ply (ascii or binary, from its header), 3 .stl
@@ -8,13 +9,16 @@
 // from tests/data/ accordingly.
 //
 // Findings: any crash, sanitizer report or hang, any exception other than the documented
-// FileError / MeshError, a loaded mesh that breaks what load_mesh promises, a refined mesh that
+// FileError / MeshError, a loaded mesh that breaks what load_mesh promises, a soup whose
+// triangles do not map to the file's polygons by the id rule (mesh_io.h), a refined mesh that
 // does not load or keeps an edge over its limit, a repaired mesh that does not load, and a
 // repair that changes a mesh that loaded.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/base/errors.h"
 #include "core/mesh/intrinsic_geometry.h"
@@ -75,6 +79,39 @@ void check_refine(const geoprox::TriangleMesh& mesh, const geoprox::IntrinsicGeo
   }
 }
 
+// The id rule of mesh_io.h: without polygons, one face record per triangle; with them, each
+// triangle's record in file order, record k of c corners giving c - 2 consecutive triangles.
+void check_face_polygons(const geoprox::MeshSoup& soup) {
+  if (soup.face_polygon.empty()) {
+    GEOPROX_FUZZ_CHECK(soup.polygons == soup.faces.size(), "one record per triangle");
+    return;
+  }
+  GEOPROX_FUZZ_CHECK(soup.face_polygon.size() == soup.faces.size(), "a record per triangle");
+  GEOPROX_FUZZ_CHECK(
+      soup.face_polygon.front() == 0 && soup.face_polygon.back() + 1 == soup.polygons,
+      "records from the first to the last");
+  std::size_t run = 1;  // triangles of the current record so far
+  for (std::size_t f = 1; f <= soup.faces.size(); ++f) {
+    if (f < soup.faces.size() && soup.face_polygon[f] == soup.face_polygon[f - 1]) {
+      ++run;
+      continue;
+    }
+    // The record that ends at f - 1 had run + 2 distinct corners, and its triangles use them.
+    std::vector<std::uint32_t> corners;
+    for (std::size_t t = f - run; t < f; ++t) {
+      corners.insert(corners.end(), soup.faces[t].begin(), soup.faces[t].end());
+    }
+    std::sort(corners.begin(), corners.end());
+    corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+    GEOPROX_FUZZ_CHECK(corners.size() == run + 2, "a polygon of c corners gives c - 2 triangles");
+    if (f < soup.faces.size()) {
+      GEOPROX_FUZZ_CHECK(soup.face_polygon[f] == soup.face_polygon[f - 1] + 1,
+                         "records in file order, none without triangles");
+    }
+    run = 1;
+  }
+}
+
 // What `geoprox repair` does with the file: its result loads, and equals a mesh that loaded.
 void check_repair(const std::string& path, bool loaded) {
   geoprox::MeshSoup soup;
@@ -85,6 +122,7 @@ void check_repair(const std::string& path, bool loaded) {
     return;
   }
   if (soup.faces.empty()) return;  // EmptyMesh, as load_mesh says
+  check_face_polygons(soup);
   const geoprox::RepairedMesh repaired = geoprox::repair_mesh(soup.positions, soup.faces);
   if (loaded) {
     GEOPROX_FUZZ_CHECK(repaired.report.unchanged() && repaired.faces == soup.faces &&

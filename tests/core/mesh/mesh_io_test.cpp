@@ -1,19 +1,25 @@
-// load_mesh: shipped meshes, every format, ids in file order, and the refusal of bad files;
-// OpenMesh's readers as an independent reference on the shipped meshes.
+// load_mesh: shipped meshes, every format, ids in file order, polygons triangulated in file
+// order, and the refusal of bad files.
 #include "core/mesh/mesh_io.h"
 
 #include <gtest/gtest.h>
 
-// OpenMesh's IO header goes before its mesh types (it registers the readers).
 #include <algorithm>
+#include <bit>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/base/errors.h"
+#include "core/base/tuning.h"
+#include "core/geodesic/exact_geodesic.h"
+#include "core/mesh/closest_point.h"
+#include "core/mesh/intrinsic_geometry.h"
 #include "tests/core/test_support.h"
 
 namespace geoprox {
@@ -367,14 +373,6 @@ TEST(MeshIoRefusal, NanCoordinateReachesTheCheck) {
                             {"nan_coordinate.obj:3", "vertex 1", "nan"});
 }
 
-TEST(MeshIoRefusal, QuadFace) {
-  expect_refusal<MeshError>(test_data_file("quad_face.obj"), "NonTriangleFace",
-                            {"quad_face.obj:8", "face 1 has 4 corners"});
-  // Binary PLY polygons too.
-  expect_refusal<MeshError>(test_data_file("quad_binary.ply"), "NonTriangleFace",
-                            {"quad_binary.ply", "face 1 has 4 corners"});
-}
-
 TEST(MeshIoRefusal, StlDegenerateFacetIsNotDroppedSilently) {
   expect_refusal<MeshError>(test_data_file("degenerate_facet.stl"), "DegenerateFaceIndices",
                             {"degenerate_facet.stl", "STL facet 1", "same point"});
@@ -473,9 +471,270 @@ TEST(MeshIoRefusal, BinaryPlyWithACommentBeforeEndHeader) {
 TEST(MeshIoRefusal, ErrorsAreQuiet) {
   ::testing::internal::CaptureStderr();
   EXPECT_THROW(load_mesh(test_data_file("truncated.off")), FileError);
-  EXPECT_THROW(load_mesh(test_data_file("quad_binary.ply")), MeshError);
+  EXPECT_THROW(load_mesh(test_data_file("nonmanifold_edge.obj")), MeshError);
   EXPECT_THROW(load_mesh(test_data_file("nan_corner.stl")), MeshError);
   EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Polygons: triangulated on load; triangle ids follow the face records (mesh_io.h).
+
+/// A planar mesh of five face records in the xy plane: a triangle, a quad, a pentagon, a
+/// triangle and a non-convex hexagon (a notch at vertex 10, and vertex 6 on a straight side).
+struct PolygonMesh {
+  std::vector<Vec3> positions = {{0, 0, 0},     {1, 0, 0}, {2, 0, 0},   {3, 0, 0},
+                                 {3, 1, 0},     {2, 1, 0}, {1, 1, 0},   {0, 1, 0},
+                                 {2.5, 1.5, 0}, {2, 3, 0}, {1, 1.6, 0}, {0, 3, 0}};
+  std::vector<std::vector<std::uint32_t>> records = {
+      {0, 1, 7}, {1, 2, 5, 6}, {2, 3, 4, 8, 5}, {1, 6, 7}, {7, 6, 5, 9, 10, 11}};
+  /// Triangles per record: corners - 2.
+  std::vector<std::uint32_t> face_polygon = {0, 1, 1, 2, 2, 2, 3, 4, 4, 4, 4};
+};
+
+std::string polygon_mesh_obj(const PolygonMesh& m) {
+  std::ostringstream text;
+  text << "# five face records of 3, 4, 5, 3 and 6 corners\n";
+  for (const Vec3& p : m.positions) text << "v " << p.x << ' ' << p.y << ' ' << p.z << '\n';
+  for (const auto& record : m.records) {
+    text << 'f';
+    for (std::uint32_t v : record) text << ' ' << v + 1;
+    text << '\n';
+  }
+  return text.str();
+}
+
+std::string polygon_mesh_off(const PolygonMesh& m) {
+  std::ostringstream text;
+  text << "OFF\n" << m.positions.size() << ' ' << m.records.size() << " 0\n";
+  for (const Vec3& p : m.positions) text << p.x << ' ' << p.y << ' ' << p.z << '\n';
+  for (const auto& record : m.records) {
+    text << record.size();
+    for (std::uint32_t v : record) text << ' ' << v;
+    text << '\n';
+  }
+  return text.str();
+}
+
+std::string ply_header(const std::string& format, const PolygonMesh& m) {
+  return "ply\nformat " + format + " 1.0\nelement vertex " + std::to_string(m.positions.size()) +
+         "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
+         std::to_string(m.records.size()) +
+         "\nproperty list uchar int vertex_indices\nend_header\n";
+}
+
+std::string polygon_mesh_ascii_ply(const PolygonMesh& m) {
+  std::ostringstream text;
+  text << ply_header("ascii", m);
+  for (const Vec3& p : m.positions) text << p.x << ' ' << p.y << ' ' << p.z << '\n';
+  for (const auto& record : m.records) {
+    text << record.size();
+    for (std::uint32_t v : record) text << ' ' << v;
+    text << '\n';
+  }
+  return text.str();
+}
+
+std::string polygon_mesh_binary_ply(const PolygonMesh& m, bool big_endian) {
+  std::string bytes = ply_header(big_endian ? "binary_big_endian" : "binary_little_endian", m);
+  auto append = [&](const auto value) {
+    char raw[sizeof value];
+    std::memcpy(raw, &value, sizeof value);
+    if (big_endian != (std::endian::native == std::endian::big))
+      std::reverse(raw, raw + sizeof raw);
+    bytes.append(raw, sizeof raw);
+  };
+  for (const Vec3& p : m.positions) {
+    append(p.x);
+    append(p.y);
+    append(p.z);
+  }
+  for (const auto& record : m.records) {
+    append(static_cast<std::uint8_t>(record.size()));
+    for (std::uint32_t v : record) append(static_cast<std::int32_t>(v));
+  }
+  return bytes;
+}
+
+/// Each triangle uses corners of its polygon only, turns the polygon's way (counter-clockwise
+/// in the xy plane), and the triangles of a polygon add up to its area: they cover it once.
+void expect_polygons_covered(const TriangleMesh& mesh,
+                             const std::vector<std::uint32_t>& face_polygon,
+                             const std::vector<std::vector<std::uint32_t>>& records) {
+  ASSERT_EQ(face_polygon.size(), mesh.num_faces());
+  std::vector<double> covered(records.size(), 0);
+  for (std::uint32_t f = 0; f < mesh.num_faces(); ++f) {
+    const std::vector<std::uint32_t>& record = records[face_polygon[f]];
+    const Triangle& t = mesh.face(f);
+    for (std::uint32_t v : t) {
+      EXPECT_NE(std::find(record.begin(), record.end(), v), record.end())
+          << "face " << f << " uses vertex " << v << ", not a corner of its polygon";
+    }
+    const double area = 0.5 * cross(mesh.position(t[1]) - mesh.position(t[0]),
+                                    mesh.position(t[2]) - mesh.position(t[0]))
+                                  .z;
+    EXPECT_GT(area, 0) << "face " << f;
+    covered[face_polygon[f]] += area;
+  }
+  for (std::size_t k = 0; k < records.size(); ++k) {
+    double area = 0;
+    const std::vector<std::uint32_t>& record = records[k];
+    for (std::size_t i = 0; i < record.size(); ++i) {
+      const Vec3 &p = mesh.position(record[i]), &q = mesh.position(record[(i + 1) % record.size()]);
+      area += 0.5 * (p.x * q.y - q.x * p.y);
+    }
+    EXPECT_NEAR(covered[k], area, 1e-12) << "polygon " << k;
+  }
+}
+
+TEST(MeshIoPolygons, EveryFormatTriangulatesFaceRecordsInFileOrder) {
+  const PolygonMesh m;
+  const LoadedMeshFile obj = load_mesh_file(temporary_file("polygons.obj", polygon_mesh_obj(m)));
+  EXPECT_EQ(obj.mesh.num_faces(), 11u);
+  EXPECT_EQ(obj.face_polygon, m.face_polygon);
+  EXPECT_EQ(obj.polygons, 5u);
+  EXPECT_EQ(obj.polygon_of(7), 4u);
+  EXPECT_EQ(obj.mesh.face(0), (Triangle{0, 1, 7}));  // triangle records stay as they are
+  EXPECT_EQ(obj.mesh.face(6), (Triangle{1, 6, 7}));
+  EXPECT_EQ(obj.mesh.num_edges(), 11u + 12u - 1u);  // a disk: V - E + F = 1
+  expect_polygons_covered(obj.mesh, obj.face_polygon, m.records);
+  // The same records in every other format give the same triangles.
+  for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
+           {"polygons.off", polygon_mesh_off(m)},
+           {"polygons.ply", polygon_mesh_ascii_ply(m)},
+           {"polygons-le.ply", polygon_mesh_binary_ply(m, false)},
+           {"polygons-be.ply", polygon_mesh_binary_ply(m, true)}}) {
+    SCOPED_TRACE(name);
+    const std::string path = temporary_file(name, text);
+    const LoadedMeshFile loaded = load_mesh_file(path);
+    EXPECT_EQ(loaded.mesh.faces(), obj.mesh.faces());
+    EXPECT_EQ(loaded.face_polygon, m.face_polygon);
+    EXPECT_EQ(loaded.polygons, 5u);
+    const MeshSoup soup = load_mesh_soup(path);
+    EXPECT_EQ(soup.faces, obj.mesh.faces());
+    EXPECT_EQ(soup.face_polygon, m.face_polygon);
+    EXPECT_EQ(soup.polygons, 5u);
+    EXPECT_EQ(load_mesh(path).faces(), obj.mesh.faces());
+  }
+}
+
+TEST(MeshIoPolygons, QuadFilesOfTestDataLoad) {
+  // Face 0 is a triangle, face 1 the unit square 0 1 2 3.
+  for (const char* name : {"quad_face.obj", "quad_binary.ply"}) {
+    SCOPED_TRACE(name);
+    const LoadedMeshFile loaded = load_mesh_file(test_data_file(name));
+    ASSERT_EQ(loaded.mesh.num_faces(), 3u);
+    EXPECT_EQ(loaded.mesh.face(0), (Triangle{1, 4, 2}));
+    EXPECT_EQ(loaded.face_polygon, (std::vector<std::uint32_t>{0, 1, 1}));
+    EXPECT_EQ(loaded.polygons, 2u);
+    expect_polygons_covered(loaded.mesh, loaded.face_polygon, {{1, 4, 2}, {0, 1, 2, 3}});
+  }
+}
+
+TEST(MeshIoPolygons, TriangleFilesHaveNoPolygonMap) {
+  // Triangle ids are the file's face ids: face_polygon stays empty, polygon_of is the identity.
+  for (const char* name : {"octahedron.ply", "octahedron_binary.ply", "strips.ply",
+                           "tetrahedron_binary.stl", "coloured.off", "hole.obj"}) {
+    SCOPED_TRACE(name);
+    const LoadedMeshFile loaded = load_mesh_file(test_data_file(name));
+    EXPECT_TRUE(loaded.face_polygon.empty());
+    EXPECT_EQ(loaded.polygons, loaded.mesh.num_faces());
+    EXPECT_EQ(loaded.polygon_of(1), 1u);
+    EXPECT_EQ(loaded.mesh.faces(), load_mesh(test_data_file(name)).faces());
+    EXPECT_TRUE(load_mesh_soup(test_data_file(name)).face_polygon.empty());
+  }
+}
+
+TEST(MeshIoPolygons, QuadCubeIsAClosedManifoldWithExactGeodesics) {
+  const std::string cube =
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+      "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 1 5 8 4\nf 2 3 7 6\n";
+  const LoadedMeshFile loaded = load_mesh_file(temporary_file("quad-cube.obj", cube));
+  const TriangleMesh& mesh = loaded.mesh;
+  ASSERT_EQ(mesh.num_faces(), 12u);
+  EXPECT_EQ(mesh.num_vertices(), 8u);
+  EXPECT_EQ(mesh.num_edges(), 18u);
+  for (std::uint32_t e = 0; e < mesh.num_edges(); ++e) EXPECT_FALSE(mesh.is_boundary_edge(e));
+  EXPECT_EQ(loaded.face_polygon, (std::vector<std::uint32_t>{0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5}));
+  EXPECT_EQ(loaded.polygons, 6u);
+  // Exact geodesics over the triangulated quads: between the centres of adjacent faces 1,
+  // between those of opposite faces 2, and across one edge, unfolded, sqrt(1.25).
+  const IntrinsicGeometry geometry(mesh);
+  const ClosestPointIndex closest(mesh);
+  auto distance = [&](const Vec3& a, const Vec3& b) {
+    const ClosestPointResult from = closest.closest(a), to = closest.closest(b);
+    EXPECT_LT(from.distance, 1e-15);
+    EXPECT_LT(to.distance, 1e-15);
+    return exact_geodesic_path(mesh, geometry, from.point, to.point).length;
+  };
+  const Vec3 bottom{0.5, 0.5, 0}, front{0.5, 0, 0.5}, top{0.5, 0.5, 1};
+  EXPECT_NEAR(distance(bottom, front), 1.0, 1e-12);
+  EXPECT_NEAR(distance(bottom, top), 2.0, 1e-12);
+  EXPECT_NEAR(distance({0.5, 0.25, 0}, {0, 0.75, 0.5}), std::sqrt(1.25), 1e-12);
+}
+
+TEST(MeshIoPolygons, RepairKeepsEachTrianglesPolygon) {
+  // Record 1 repeats the second triangle of quad 0 (a flat rhombus split along its short
+  // diagonal 1-3): repair drops it, and the triangles after it keep their polygons.
+  const std::string text =
+      "v 0 0 0\nv 2 -0.5 0\nv 4 0 0\nv 2 0.5 0\nv 10 0 0\nv 11 0 0\nv 11 1 0\nv 10 1 0\n"
+      "f 1 2 3 4\nf 2 3 4\nf 5 6 7 8\n";
+  const std::string path = temporary_file("polygons-repair.obj", text);
+  // Unrepaired, TriangleMesh names triangles: record 1 is triangle 2.
+  expect_refusal<MeshError>(path, "InconsistentOrientation",
+                            {"polygons-repair.obj", "face 2 (vertices 1 2 3)", "face 1"});
+  MeshLoadOptions options;
+  options.repair = true;
+  const LoadedMeshFile loaded = load_mesh_file(path, options);
+  ASSERT_TRUE(loaded.repair.has_value());
+  EXPECT_EQ(loaded.repair->duplicate_faces_dropped, 1u);
+  ASSERT_EQ(loaded.mesh.num_faces(), 4u);
+  EXPECT_EQ(loaded.mesh.face(0), (Triangle{0, 1, 3}));
+  EXPECT_EQ(loaded.mesh.face(1), (Triangle{1, 2, 3}));
+  EXPECT_EQ(loaded.face_polygon, (std::vector<std::uint32_t>{0, 0, 2, 2}));
+  EXPECT_EQ(loaded.polygons, 3u);
+  EXPECT_EQ(loaded.polygon_of(3), 2u);
+}
+
+TEST(MeshIoPolygons, FacesThatCannotBeTriangulatedAreRefused) {
+  const std::string five = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nv 0 1 0\n";
+  // All corners on one line: no plane, no area. The message names the file, line and face.
+  expect_refusal<MeshError>(temporary_file("polygon-line.obj", five + "f 1 2 5\nf 1 2 3 4\n"),
+                            "DegenerateFaceIndices",
+                            {"polygon-line.obj:7: face 1 (vertices 0 1 2 3)", "on one line"});
+  expect_refusal<MeshError>(temporary_file("polygon-line.off",
+                                           "OFF\n5 2 0\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n0 1 0\n"
+                                           "3 0 1 4\n4 3 2 1 0\n"),
+                            "DegenerateFaceIndices",
+                            {"polygon-line.off:9: face 1 (vertices 3 2 1 0)", "one line"});
+  // A corner repeated, anywhere in the polygon.
+  expect_refusal<MeshError>(temporary_file("polygon-repeat.obj", five + "f 1 2 5 2\n"),
+                            "DegenerateFaceIndices",
+                            {"polygon-repeat.obj:6: face 0 (vertices 0 1 4 1) repeats vertex 1",
+                             "a polygon needs 4 distinct ones"});
+  // Fewer than three corners, in every format.
+  expect_refusal<MeshError>(temporary_file("two-corners.obj", five + "f 1 2 5\nf 1 2\n"),
+                            "DegenerateFaceIndices",
+                            {"two-corners.obj:7: face 1 has 2 corners; a face needs at least 3"});
+  const std::string off_vertices = "OFF\n5 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n0 1 0\n";
+  expect_refusal<MeshError>(temporary_file("two-corners.off", off_vertices + "2 0 1\n"),
+                            "DegenerateFaceIndices", {"two-corners.off:8: face 0 has 2 corners"});
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n2 0 0\n3 0 0\n0 1 0\n";
+  expect_refusal<MeshError>(temporary_file("two-corners.ply", ply + "2 0 1\n"),
+                            "DegenerateFaceIndices", {"two-corners.ply:15: face 0 has 2 corners"});
+  // A polygon's corner out of range names the polygon.
+  expect_refusal<MeshError>(temporary_file("polygon-range.obj", five + "f 1 2 3 9\n"),
+                            "VertexOutOfRange",
+                            {"polygon-range.obj:6: face 0 (vertices 0 1 2 8) refers to vertex 8",
+                             "the file has 5 vertices"});
+  // Too many corners: refused where the count is read, before the corners are.
+  const std::string too_many = std::to_string(tuning::kMaxPolygonCorners + 1);
+  expect_refusal<MeshError>(
+      temporary_file("polygon-huge.off", off_vertices + too_many + " 0 1 2\n"), "TooLarge",
+      {"polygon-huge.off:8: face 0 has " + too_many + " corners, more than the " +
+       std::to_string(tuning::kMaxPolygonCorners)});
 }
 
 // ---------------------------------------------------------------------------------------------
