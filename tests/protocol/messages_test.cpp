@@ -642,13 +642,14 @@ TEST(Results, MeshListAndInfo) {
                       0.070697,
                       0.248016,
                       std::nullopt,
+                      std::nullopt,
                       std::nullopt};
   EXPECT_EQ(json(info), json::parse(R"({"mesh":"spot","mesh_version":"f95506b621abc471",
       "state":"ready","progress":1.0,"phase":null,"vertices":2930,"faces":5856,"samples":1300,
       "error":null,"edges":8784,"graph_edges":30268,"mesh_file":"meshes/spot.obj",
       "graph_file":"graphs/spot.geoprox","build":{"samples":1300,"neighbors":22,
       "sampling":"fmm"},"covering_radius":0.070697,"link_radius":0.248016,"polygons":null,
-      "repair":null})"));
+      "repair":null,"refined":null})"));
   EXPECT_EQ(json(ready)["mesh"], "spot") << "admin.register/rebuild answer a summary with mesh";
 
   // A mesh loaded with repair, from a file with polygons: both facts, every count by name.
@@ -660,6 +661,10 @@ TEST(Results, MeshListAndInfo) {
       "vertices_out":2935,"faces_out":5856,"degenerate_faces_dropped":0,
       "duplicate_faces_dropped":1,"edges_cut":2,"faces_flipped":3,"vertices_split":4,
       "vertices_added":5})"));
+  // A graph over a refinement of the mesh: its counts and edge limit.
+  info.refined = MeshRefinement{16130, 32256, 0.346921};
+  EXPECT_EQ(json(info)["refined"],
+            json::parse(R"({"vertices":16130,"faces":32256,"max_edge_length":0.346921})"));
 }
 
 TEST(Results, ServerInfoHealthMetrics) {

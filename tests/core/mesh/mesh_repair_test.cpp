@@ -324,7 +324,7 @@ TEST(MeshRepair, FixesTheManifoldReasonsOnly) {
     EXPECT_TRUE(repair_fixes(code)) << error_code_name(code);
   }
   for (ErrorCode code : {ErrorCode::EmptyMesh, ErrorCode::NonFiniteCoordinate,
-                         ErrorCode::VertexOutOfRange, ErrorCode::NonTriangleFace}) {
+                         ErrorCode::VertexOutOfRange, ErrorCode::TooLarge}) {
     EXPECT_FALSE(repair_fixes(code)) << error_code_name(code);
   }
 }
