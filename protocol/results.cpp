@@ -54,6 +54,7 @@ void to_json(json& out, const DistanceResult& result) {
 
 void to_json(json& out, const WirePathPoint& point) {
   out = {{"face", point.face}, {"bary", point.bary}, {"position", point.position}};
+  if (point.polygon) out["polygon"] = *point.polygon;
 }
 
 void to_json(json& out, const PathResult& result) {

@@ -37,6 +37,9 @@ struct WirePathPoint {
   std::uint32_t face = 0;
   std::array<double, 3> bary{1, 0, 0};
   std::array<double, 3> position{0, 0, 0};
+  /// The mesh file's polygon (face record) that `face` is a triangle of, when the file had
+  /// polygons (written only then).
+  std::optional<std::uint32_t> polygon;
 };
 
 /// From source to target; `distance` finite as in DistanceResult.

@@ -157,9 +157,15 @@ protocol::DistanceResult run_distance(const protocol::DistanceParams& p, const L
   return r;
 }
 
-protocol::WirePathPoint to_wire_point(const PathPoint& point, const TriangleMesh& mesh) {
-  const auto [face, bary] = point.point.in_face(mesh);
-  return {face, bary, {point.position.x, point.position.y, point.position.z}};
+/// A path point as a face point of the mesh in service, with the file's polygon of that face
+/// when the file had polygons.
+protocol::WirePathPoint to_wire_point(const PathPoint& point, const LoadedMesh& m) {
+  const MeshData& data = m.data();
+  const auto [face, bary] = point.point.in_face(data.mesh);
+  protocol::WirePathPoint wire{face, bary, {point.position.x, point.position.y, point.position.z},
+                               std::nullopt};
+  if (!data.face_polygon.empty()) wire.polygon = data.face_polygon[face];
+  return wire;
 }
 
 protocol::PathResult run_path(const protocol::PathParams& p, const LoadedMesh& m,
@@ -176,7 +182,7 @@ protocol::PathResult run_path(const protocol::PathParams& p, const LoadedMesh& m
   r.distance = path.distance;
   r.exact = path.exact;
   r.points.reserve(path.points.size());
-  for (const PathPoint& point : path.points) r.points.push_back(to_wire_point(point, m.mesh()));
+  for (const PathPoint& point : path.points) r.points.push_back(to_wire_point(point, m));
   return r;
 }
 
@@ -284,11 +290,11 @@ protocol::SplineResult run_spline(const protocol::SplineParams& p, const LoadedM
   r.type = p.type;
   r.exact = p.exact;
   r.points.reserve(curve.curve.size());
-  for (const PathPoint& point : curve.curve) r.points.push_back(to_wire_point(point, m.mesh()));
+  for (const PathPoint& point : curve.curve) r.points.push_back(to_wire_point(point, m));
   for (const std::vector<PathPoint>& leg : curve.control_polygon) {
     std::vector<protocol::WirePathPoint> wire;
     wire.reserve(leg.size());
-    for (const PathPoint& point : leg) wire.push_back(to_wire_point(point, m.mesh()));
+    for (const PathPoint& point : leg) wire.push_back(to_wire_point(point, m));
     r.control_polygon.push_back(std::move(wire));
   }
   return r;

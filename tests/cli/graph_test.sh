@@ -111,6 +111,34 @@ pass
   fail "strip field failed"
 [ "$(wc -l <"$tmp/out")" -eq 123 ] || fail "strip field: not one value per vertex of the strip"; pass
 
+# A mesh of polygons: a unit cube of five quads and one face as two triangles loads as twelve
+# triangles, and the geodesic between opposite corners is the cube's, sqrt(5) over two faces.
+cat >"$tmp/cube.obj" <<'OBJ'
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+f 1 4 3 2
+f 5 6 7 8
+f 1 2 6 5
+f 2 3 7 6
+f 3 4 8 7
+f 4 1 5
+f 4 5 8
+OBJ
+"$geoprox" build "$tmp/cube.obj" -o "$tmp/cube.geoprox" -q >"$tmp/out" 2>"$tmp/err" ||
+  fail "cube build failed: $(cat "$tmp/err")"
+grep -q '^mesh .*(8 vertices, 12 faces)' "$tmp/out" || fail "cube: $(head -1 "$tmp/out")"; pass
+printf 'v:0 v:6\n' >"$tmp/pairs"
+"$geoprox" distance "$tmp/cube.obj" -g "$tmp/cube.geoprox" --pairs "$tmp/pairs" >"$tmp/out" ||
+  fail "cube distance failed"
+python3 -c 'import math,sys; d=float(open(sys.argv[1]).read()); assert abs(d - math.sqrt(5)) < 1e-9, d' "$tmp/out" ||
+  fail "cube corner to corner: $(cat "$tmp/out") (expected sqrt 5)"; pass
+
 # A bad option value is a usage error.
 set +e
 "$geoprox" build "$spot" -o "$tmp/c.geoprox" --sampling nope >/dev/null 2>&1; rc=$?

@@ -101,11 +101,13 @@ TEST(ApplicationMethods, Results) {
   spline.mesh = "spot";
   spline.mesh_version = "v1";
   spline.type = SplineKind::BSpline;
-  spline.points = {{3, {1, 0, 0}, {1, 2, 3}}};
-  spline.control_polygon = {{{3, {1, 0, 0}, {1, 2, 3}}, {4, {0, 1, 0}, {2, 2, 3}}}};
+  spline.points = {{3, {1, 0, 0}, {1, 2, 3}, std::nullopt}};
+  spline.control_polygon = {
+      {{3, {1, 0, 0}, {1, 2, 3}, std::nullopt}, {4, {0, 1, 0}, {2, 2, 3}, 17}}};
   EXPECT_EQ(json(spline).dump(),
             R"({"control_polygon":[[{"bary":[1.0,0.0,0.0],"face":3,"position":[1.0,2.0,3.0]},)"
-            R"({"bary":[0.0,1.0,0.0],"face":4,"position":[2.0,2.0,3.0]}]],"exact":false,)"
+            R"({"bary":[0.0,1.0,0.0],"face":4,"polygon":17,"position":[2.0,2.0,3.0]}]],)"
+            R"("exact":false,)"
             R"("mesh":"spot","mesh_version":"v1","points":[{"bary":[1.0,0.0,0.0],"face":3,)"
             R"("position":[1.0,2.0,3.0]}],"type":"bspline"})");
 }

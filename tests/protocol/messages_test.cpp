@@ -546,7 +546,7 @@ TEST(Results, Path) {
                     WirePoint::vertex(0),
                     WirePoint::vertex(7),
                     false,
-                    {{3, {1, 0, 0}, {0.5, 1, 2}}, {4, {0, 0.25, 0.75}, {1, 1, 1}}}};
+                    {{3, {1, 0, 0}, {0.5, 1, 2}, std::nullopt}, {4, {0, 0.25, 0.75}, {1, 1, 1}, std::nullopt}}};
   EXPECT_EQ(json(result), json::parse(R"({"mesh":"spot","mesh_version":"v1","distance":1.5,
       "source":{"vertex":0},"target":{"vertex":7},"exact":false,
       "points":[{"face":3,"bary":[1.0,0.0,0.0],"position":[0.5,1.0,2.0]},

@@ -65,11 +65,6 @@ class Daemon {
   bool exited_ = false;
 };
 
-void write_file(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-}
-
 /// Waits for the port file and returns the query port.
 std::uint16_t wait_for_port(const fs::path& port_file, const fs::path& log) {
   const auto deadline = std::chrono::steady_clock::now() + 30s;
@@ -100,7 +95,7 @@ fs::path write_config(const TestData& data, const json& extra = json::object()) 
                     {"sampling", "fmm"}}}}};
   config.update(extra);
   const fs::path path = data.dir.path() / "geoproxd.json";
-  write_file(path, config.dump(2));
+  write_text(path, config.dump(2));
   return path;
 }
 
@@ -194,7 +189,7 @@ TEST(Daemon, SighupReloadsAGoodGraphAndKeepsTheOldOneOnACorruptedOne) {
   // A corrupted graph (one flipped byte): the reload fails, the old graph keeps serving.
   std::string bytes = read_bytes(graph);
   bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5a);
-  write_file(data.graph_dir() / "bad.tmp", bytes);
+  write_text(data.graph_dir() / "bad.tmp", bytes);
   fs::rename(data.graph_dir() / "bad.tmp", graph);
   daemon.signal(SIGHUP);
   bool failed_logged = false;
@@ -259,7 +254,7 @@ TEST(Daemon, CheckValidatesConfigMeshesAndGraphs) {
   }
   {
     // A corrupted graph file fails the check.
-    write_file(data.graph_dir() / "spot.geoprox", "GEOPROXG not really a graph");
+    write_text(data.graph_dir() / "spot.geoprox", "GEOPROXG not really a graph");
     const fs::path config = write_config(data);
     Daemon check({"--config", config.string(), "--check"}, log);
     EXPECT_EQ(check.wait(60s), 1);
@@ -494,7 +489,7 @@ TEST_F(AdminTest, RegisterRebuildReloadUnregister) {
   ASSERT_EQ(unchanged["meshes"].size(), 2u);
   EXPECT_EQ(unchanged["meshes"][0]["reloaded"], false);
   EXPECT_TRUE(unchanged["meshes"][0]["error"].is_null());
-  write_file(data_.data_dir() / "bad.tmp", "GEOPROXG garbage");
+  write_text(data_.data_dir() / "bad.tmp", "GEOPROXG garbage");
   fs::rename(data_.data_dir() / "bad.tmp", data_.data_dir() / "spot2.geoprox");
   const json refused = c.result("admin.reload", {{"token", "s3cret"}, {"mesh", "spot2"}});
   ASSERT_EQ(refused["meshes"].size(), 1u);
@@ -529,7 +524,7 @@ TEST_F(AdminTest, AMeshWithGapsBetweenItsSamplesIsServedOnARefinement) {
   // Every vertex of the strip is a sample, yet the middles of its long faces are 4.51 from all
   // of them, beyond the link radius: the build refines the strip internally, says so in the
   // log, and serves it in its own ids, with r under rho and no warning.
-  write_file(data_.data_dir() / "meshes/strip.obj", long_faced_strip_obj());
+  write_text(data_.data_dir() / "meshes/strip.obj", long_faced_strip_obj());
   auto sink = std::make_shared<CaptureSink>();
   const auto previous = spdlog::default_logger();
   spdlog::set_default_logger(std::make_shared<spdlog::logger>("gaps-test", sink));

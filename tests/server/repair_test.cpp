@@ -78,11 +78,6 @@ json expected_repair() {
           {"vertices_added", 1}};
 }
 
-void write_text(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path, std::ios::binary | std::ios::trunc) << text;
-}
-
 /// A config serving the grids from `dir` (data/meshes/grids.obj), repaired or not, with a small
 /// graph; `extra` entries are appended to its meshes.
 Config grids_config(const TempDir& dir, bool repair, const json& extra = json::array()) {

@@ -117,6 +117,12 @@ struct TestData {
 };
 
 /// A config serving spot from `data` on ephemeral ports.
+/// Writes `text` to `path`, creating its directory.
+inline void write_text(const fs::path& path, const std::string& text) {
+  fs::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << text;
+}
+
 inline Config spot_config(const TestData& data) {
   Config config;
   config.port = 0;
