@@ -244,26 +244,14 @@ SurfacePoint RefinedMesh::to_refined(const TriangleMesh& input, const SurfacePoi
   point.validate(input);
   if (point.kind == SurfacePoint::Kind::Vertex) return point;
   const auto [f, b] = point.in_face(input);
-  // The part of f whose corners' barycentrics hold b: solve b = sum l_k B_k in two coordinates
-  // (the third follows from both summing to 1).
   double best_low = -std::numeric_limits<double>::infinity();
   SurfacePoint best = SurfacePoint::face(f, b[0], b[1], b[2]);
   for (std::size_t g = 0; g < faces.size(); ++g) {
     if (source_face[g] != f) continue;
-    const auto& B = source_bary[g];
-    const double u1 = B[1][1] - B[0][1], u2 = B[1][2] - B[0][2];
-    const double v1 = B[2][1] - B[0][1], v2 = B[2][2] - B[0][2];
-    const double r1 = b[1] - B[0][1], r2 = b[2] - B[0][2];
-    const double det = u1 * v2 - u2 * v1;
-    if (det == 0) continue;
-    const double l1 = (r1 * v2 - r2 * v1) / det, l2 = (u1 * r2 - u2 * r1) / det;
-    const double l0 = 1 - l1 - l2;
-    const double low = std::min({l0, l1, l2});
+    const auto [low, in_part] = barycentrics_in_part(b, source_bary[g]);
     if (low > best_low) {
       best_low = low;
-      const double c0 = std::max(l0, 0.0), c1 = std::max(l1, 0.0), c2 = std::max(l2, 0.0);
-      const double sum = c0 + c1 + c2;
-      best = SurfacePoint::face(static_cast<std::uint32_t>(g), c0 / sum, c1 / sum, c2 / sum);
+      best = SurfacePoint::face(static_cast<std::uint32_t>(g), in_part[0], in_part[1], in_part[2]);
     }
   }
   return best;

@@ -27,6 +27,22 @@ SurfacePoint simplest_point_in_face(const TriangleMesh& mesh, std::uint32_t face
   return SurfacePoint::face(face, bary[0], bary[1], bary[2]);
 }
 
+std::pair<double, std::array<double, 3>> barycentrics_in_part(
+    const std::array<double, 3>& b, const std::array<std::array<double, 3>, 3>& corners) {
+  // Solve b = sum l_k corners_k in two coordinates (the third follows from both summing to 1).
+  const auto& B = corners;
+  const double u1 = B[1][1] - B[0][1], u2 = B[1][2] - B[0][2];
+  const double v1 = B[2][1] - B[0][1], v2 = B[2][2] - B[0][2];
+  const double r1 = b[1] - B[0][1], r2 = b[2] - B[0][2];
+  const double det = u1 * v2 - u2 * v1;
+  if (det == 0) return {-std::numeric_limits<double>::infinity(), {1, 0, 0}};
+  const double l1 = (r1 * v2 - r2 * v1) / det, l2 = (u1 * r2 - u2 * r1) / det;
+  const double l0 = 1 - l1 - l2;
+  const double c0 = std::max(l0, 0.0), c1 = std::max(l1, 0.0), c2 = std::max(l2, 0.0);
+  const double sum = c0 + c1 + c2;
+  return {std::min({l0, l1, l2}), {c0 / sum, c1 / sum, c2 / sum}};
+}
+
 namespace {
 
 [[noreturn]] void throw_not_a_refinement(const std::string& what) {
@@ -71,26 +87,14 @@ RefinementMap::RefinementMap(const TriangleMesh& input, const TriangleMesh& refi
 SurfacePoint RefinementMap::to_refined(const SurfacePoint& point) const {
   if (point.kind == SurfacePoint::Kind::Vertex) return point;
   const auto [f, b] = point.in_face(*input_);
-  // The part of f whose corners' barycentrics hold b: solve b = sum l_k B_k in two coordinates
-  // (the third follows from both summing to 1); the part where the smallest l_k is largest.
   double best_low = -std::numeric_limits<double>::infinity();
   SurfacePoint best = SurfacePoint::face(f, b[0], b[1], b[2]);
   for (std::uint32_t i = part_offsets_[f]; i < part_offsets_[f + 1]; ++i) {
     const std::uint32_t g = parts_[i];
-    const CornerBarys& B = source_bary_[g];
-    const double u1 = B[1][1] - B[0][1], u2 = B[1][2] - B[0][2];
-    const double v1 = B[2][1] - B[0][1], v2 = B[2][2] - B[0][2];
-    const double r1 = b[1] - B[0][1], r2 = b[2] - B[0][2];
-    const double det = u1 * v2 - u2 * v1;
-    if (det == 0) continue;
-    const double l1 = (r1 * v2 - r2 * v1) / det, l2 = (u1 * r2 - u2 * r1) / det;
-    const double l0 = 1 - l1 - l2;
-    const double low = std::min({l0, l1, l2});
+    const auto [low, in_part] = barycentrics_in_part(b, source_bary_[g]);
     if (low > best_low) {
       best_low = low;
-      const double c0 = std::max(l0, 0.0), c1 = std::max(l1, 0.0), c2 = std::max(l2, 0.0);
-      const double sum = c0 + c1 + c2;
-      best = SurfacePoint::face(g, c0 / sum, c1 / sum, c2 / sum);
+      best = SurfacePoint::face(g, in_part[0], in_part[1], in_part[2]);
     }
   }
   return best;

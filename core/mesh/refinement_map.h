@@ -15,6 +15,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "core/mesh/mesh.h"
@@ -26,6 +27,12 @@ namespace geoprox {
 /// when it is a corner, a point of an edge when one coordinate is zero, else a face point.
 SurfacePoint simplest_point_in_face(const TriangleMesh& mesh, std::uint32_t face,
                                     const std::array<double, 3>& bary);
+
+/// Barycentrics `b` of a face in one of its parts, whose corners lie at `corners` in the face:
+/// the smallest of them (negative outside the part, -infinity for a part of zero area) and the
+/// barycentrics clamped onto the part. The part holding `b` is the one whose smallest is largest.
+std::pair<double, std::array<double, 3>> barycentrics_in_part(
+    const std::array<double, 3>& b, const std::array<std::array<double, 3>, 3>& corners);
 
 class RefinementMap {
  public:

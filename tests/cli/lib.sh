@@ -89,15 +89,42 @@ build_spot_graph() {
     fail "build failed: $(cat "$tmp/err")"
 }
 
-# start_daemon: geoproxd (built next to geoprox) serving spot.obj as mesh "spot" from the graph
-# of build_spot_graph, on ephemeral ports of 127.0.0.1, logging to $tmp/daemon.log. Sets
-# daemon_pid and port, exports GEOPROX_HOST and GEOPROX_PORT, and waits (10 s at most each) for
-# the port file and for `geoprox remote meshes` to list spot as ready; the last listing is left in
-# $tmp/meshes. The daemon is stopped at exit unless the test stops it and clears daemon_pid.
-start_daemon() {
+# daemon_binary: the geoproxd built next to geoprox (fails the test when it is missing).
+daemon_binary() {
   local geoproxd
   geoproxd="$(cd "$(dirname "$geoprox")/../../server" && pwd)/geoproxd"
   [ -x "$geoproxd" ] || fail "daemon $geoproxd is missing (build the geoproxd target)"
+  echo "$geoproxd"
+}
+
+# run_daemon CONFIG MESH TRIES: geoproxd on CONFIG, on ephemeral ports of 127.0.0.1, logging to
+# $tmp/daemon.log. Sets daemon_pid and port, exports GEOPROX_HOST and GEOPROX_PORT, and waits
+# for the port file (10 s at most) and for `geoprox remote meshes` to list MESH as ready (TRIES
+# tenths of a second at most); the last listing is left in $tmp/meshes. The daemon is stopped
+# at exit unless the test stops it and clears daemon_pid.
+run_daemon() {
+  local config=$1 mesh=$2 tries=$3 geoproxd
+  geoproxd=$(daemon_binary)
+  "$geoproxd" --config "$config" --port 0 --admin-port 0 --port-file "$tmp/port.json" \
+    >"$tmp/daemon.log" 2>&1 &
+  daemon_pid=$!
+  for _ in $(seq 100); do
+    [ -s "$tmp/port.json" ] && break
+    kill -0 "$daemon_pid" 2>/dev/null || fail "geoproxd exited at start"
+    sleep 0.1
+  done
+  [ -s "$tmp/port.json" ] || fail "geoproxd wrote no port file"
+  port=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["port"])' "$tmp/port.json")
+  export GEOPROX_HOST=127.0.0.1 GEOPROX_PORT=$port
+  for _ in $(seq "$tries"); do
+    "$geoprox" remote meshes >"$tmp/meshes" 2>/dev/null && grep -q "^$mesh  *ready" "$tmp/meshes" &&
+      break
+    sleep 0.1
+  done
+}
+
+# start_daemon: run_daemon serving spot.obj as mesh "spot" from the graph of build_spot_graph.
+start_daemon() {
   cat >"$tmp/config.json" <<JSON
 {
   "bind": "127.0.0.1",
@@ -110,21 +137,7 @@ start_daemon() {
   ]
 }
 JSON
-  "$geoproxd" --config "$tmp/config.json" --port 0 --admin-port 0 --port-file "$tmp/port.json" \
-    >"$tmp/daemon.log" 2>&1 &
-  daemon_pid=$!
-  for _ in $(seq 100); do
-    [ -s "$tmp/port.json" ] && break
-    kill -0 "$daemon_pid" 2>/dev/null || fail "geoproxd exited at start"
-    sleep 0.1
-  done
-  [ -s "$tmp/port.json" ] || fail "geoproxd wrote no port file"
-  port=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["port"])' "$tmp/port.json")
-  export GEOPROX_HOST=127.0.0.1 GEOPROX_PORT=$port
-  for _ in $(seq 100); do
-    "$geoprox" remote meshes >"$tmp/meshes" 2>/dev/null && grep -q '^spot  *ready' "$tmp/meshes" && break
-    sleep 0.1
-  done
+  run_daemon "$tmp/config.json" spot 100
 }
 
 # expect_geoprox_ok OUT ARGS...: `geoprox ARGS` exits 0, prints something on stdout (kept in

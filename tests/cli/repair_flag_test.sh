@@ -133,8 +133,7 @@ grep -qE '^ *input: 9085 vertices, 16848 faces' "$tmp/refine" || fail "refine --
 # geoproxd with "repair": true: --check loads the mesh repaired, and the daemon serves the graph
 # built with --repair as it is (no rebuild), with the same answers; remote field --out reads
 # the local copy with --repair.
-geoproxd="$(cd "$(dirname "$geoprox")/../../server" && pwd)/geoproxd"
-[ -x "$geoproxd" ] || fail "daemon $geoproxd is missing (build the geoproxd target)"
+geoproxd=$(daemon_binary)
 cat >"$tmp/config.json" <<JSON
 {
   "bind": "127.0.0.1",
@@ -152,20 +151,7 @@ JSON
 grep -qF "9085 vertices, 16848 faces; repaired: 421 vertices split (+443 copies))" "$tmp/check" ||
   fail "--check: $(cat "$tmp/check")"; pass
 graph_before=$(cksum <"$g")
-"$geoproxd" --config "$tmp/config.json" --port 0 --admin-port 0 --port-file "$tmp/port.json" \
-  >"$tmp/daemon.log" 2>&1 &
-daemon_pid=$!
-for _ in $(seq 100); do
-  [ -s "$tmp/port.json" ] && break
-  kill -0 "$daemon_pid" 2>/dev/null || fail "geoproxd exited at start"
-  sleep 0.1
-done
-port=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["port"])' "$tmp/port.json")
-export GEOPROX_HOST=127.0.0.1 GEOPROX_PORT=$port
-for _ in $(seq 600); do
-  "$geoprox" remote meshes >"$tmp/meshes" 2>/dev/null && grep -q '^pig  *ready' "$tmp/meshes" && break
-  sleep 0.1
-done
+run_daemon "$tmp/config.json" pig 600
 # 300 farthest-point samples, and the slit ends repair left as corner samples on top.
 grep -q '^pig  *ready  *100% *16848  *[0-9]*$' "$tmp/meshes" || fail "pig not ready: $(cat "$tmp/meshes")"
 samples=$(awk '$1 == "pig" { print $NF }' "$tmp/meshes")

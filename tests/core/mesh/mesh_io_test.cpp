@@ -503,15 +503,21 @@ std::string polygon_mesh_obj(const PolygonMesh& m) {
   return text.str();
 }
 
-std::string polygon_mesh_off(const PolygonMesh& m) {
-  std::ostringstream text;
-  text << "OFF\n" << m.positions.size() << ' ' << m.records.size() << " 0\n";
+/// The vertex lines, then one line per record (its corner count, then its corners), as OFF and
+/// ascii PLY write them.
+void write_ascii_body(std::ostringstream& text, const PolygonMesh& m) {
   for (const Vec3& p : m.positions) text << p.x << ' ' << p.y << ' ' << p.z << '\n';
   for (const auto& record : m.records) {
     text << record.size();
     for (std::uint32_t v : record) text << ' ' << v;
     text << '\n';
   }
+}
+
+std::string polygon_mesh_off(const PolygonMesh& m) {
+  std::ostringstream text;
+  text << "OFF\n" << m.positions.size() << ' ' << m.records.size() << " 0\n";
+  write_ascii_body(text, m);
   return text.str();
 }
 
@@ -525,12 +531,7 @@ std::string ply_header(const std::string& format, const PolygonMesh& m) {
 std::string polygon_mesh_ascii_ply(const PolygonMesh& m) {
   std::ostringstream text;
   text << ply_header("ascii", m);
-  for (const Vec3& p : m.positions) text << p.x << ' ' << p.y << ' ' << p.z << '\n';
-  for (const auto& record : m.records) {
-    text << record.size();
-    for (std::uint32_t v : record) text << ' ' << v;
-    text << '\n';
-  }
+  write_ascii_body(text, m);
   return text.str();
 }
 
