@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "core/geodesic/geodesic_tracing.h"
+#include "core/graph/refined_surface.h"
 
 namespace geoprox {
 
@@ -21,6 +22,10 @@ double wrap_angle(double a) {
   a = std::fmod(a, kTwoPi);
   if (a < 0) a += kTwoPi;
   return a >= kTwoPi ? 0 : a;
+}
+
+ExponentialMapVertex polar(std::uint32_t vertex, double distance, double angle) {
+  return {vertex, distance, angle, distance * std::cos(angle), distance * std::sin(angle)};
 }
 
 }  // namespace
@@ -142,12 +147,27 @@ double TangentFrame::angle(const FaceDirection& direction) const {
 // ---------------------------------------------------------------------------------------------
 // The map
 
+namespace {
+
+/// A query on the mesh a graph was built on, when that is a refinement of the query's mesh.
+std::unique_ptr<GeodesicQuery> query_on_refinement(const GeodesicQuery& query) {
+  const RefinedSurface* refined = query.refined();
+  if (refined == nullptr) return nullptr;
+  return std::make_unique<GeodesicQuery>(refined->mesh(), refined->geometry(), query.graph(),
+                                         query.options());
+}
+
+}  // namespace
+
 ExponentialMap::ExponentialMap(const GeodesicQuery& query)
-    : mesh_(&query.mesh()),
-      geometry_(&query.geometry()),
-      query_(&query),
-      scratch_(std::make_unique<QueryScratch>(query.make_scratch())),
-      solver_(query.mesh(), query.geometry()) {}
+    : refined_query_(query_on_refinement(query)),
+      refined_(query.refined()),
+      given_geometry_(&query.geometry()),
+      mesh_(refined_ ? &refined_->mesh() : &query.mesh()),
+      geometry_(refined_ ? &refined_->geometry() : &query.geometry()),
+      query_(refined_query_ ? refined_query_.get() : &query),
+      scratch_(std::make_unique<QueryScratch>(query_->make_scratch())),
+      solver_(*mesh_, *geometry_) {}
 
 ExponentialMap::ExponentialMap(const TriangleMesh& mesh, const IntrinsicGeometry& geometry)
     : mesh_(&mesh), geometry_(&geometry), solver_(mesh, geometry) {}
@@ -163,16 +183,57 @@ ExponentialMapResult ExponentialMap::compute(const SurfacePoint& source, const O
     throw InvalidInput(ErrorCode::NoGraph,
                        "the graph mode of the exponential map needs a proximity graph");
   }
-  const TangentFrame frame(*mesh_, *geometry_, source);
-  return options.mode == ExponentialMapMode::Exact ? compute_exact(frame.source(), frame, options)
-                                                   : compute_graph(frame.source(), frame, options);
+  const auto [computed_source, offset] = on_computed_mesh(source);
+  const TangentFrame frame(*mesh_, *geometry_, computed_source);
+  ExponentialMapResult out = options.mode == ExponentialMapMode::Exact
+                                 ? compute_exact(frame.source(), frame, options)
+                                 : compute_graph(frame.source(), frame, options);
+  if (refined_ == nullptr) return out;
+  // On the given mesh: its vertices (the refinement's first ones, with their ids) and its frame.
+  const TriangleMesh& given = refined_->input();
+  out.source = canonical_surface_point(given, source);
+  std::erase_if(out.vertices, [&](const ExponentialMapVertex& v) {
+    return v.vertex >= given.num_vertices();
+  });
+  for (ExponentialMapVertex& v : out.vertices) {
+    if (offset == 0 || v.distance == 0) continue;
+    v = polar(v.vertex, v.distance, wrap_angle(v.angle - offset));
+  }
+  return out;
+}
+
+std::pair<SurfacePoint, double> ExponentialMap::on_computed_mesh(
+    const SurfacePoint& source) const {
+  if (refined_ == nullptr) return {source, 0};
+  const TriangleMesh& given = refined_->input();
+  const SurfacePoint canonical = canonical_surface_point(given, source);
+  const SurfacePoint computed = refined_->map().to_refined(canonical);
+  // A boundary vertex's angle 0 is its boundary edge's direction on both meshes.
+  if (canonical.kind == SurfacePoint::Kind::Vertex && given.is_boundary_vertex(canonical.id)) {
+    return {computed, 0};
+  }
+  // The direction of the given frame's x axis in a face f holding the source (corner 0 to 1),
+  // in the frame of the refined face g inside f that holds it too: both frames are the faces'
+  // orthonormal in-plane frames (a refinement is of the mesh's own lengths).
+  const auto [f, b] = canonical.in_face(given);
+  const std::uint32_t g = refined_->map().to_refined(SurfacePoint::face(f, b[0], b[1], b[2])).id;
+  const TangentFrame given_frame(given, *given_geometry_, canonical);
+  const Vec3 u = given.position(given.face(f)[1]) - given.position(given.face(f)[0]);
+  const TriangleMesh& fine = *mesh_;
+  const Vec3 q0 = fine.position(fine.face(g)[0]);
+  const Vec3 x = fine.position(fine.face(g)[1]) - q0, side = fine.position(fine.face(g)[2]) - q0;
+  const Vec3 ex = (1 / norm(x)) * x;
+  const Vec3 across = side - dot(side, ex) * ex;
+  const Vec3 ey = (1 / norm(across)) * across;
+  const double ux = dot(u, ex), uy = dot(u, ey), length = std::hypot(ux, uy);
+  const TangentFrame computed_frame(fine, *geometry_, computed);
+  const double offset = computed_frame.angle(FaceDirection{g, ux / length, uy / length}) -
+                        given_frame.angle(FaceDirection{f, 1, 0});
+  return {computed, offset};
 }
 
 namespace {
 
-ExponentialMapVertex polar(std::uint32_t vertex, double distance, double angle) {
-  return {vertex, distance, angle, distance * std::cos(angle), distance * std::sin(angle)};
-}
 
 /// Angle of the exact path to `vertex` in a finished solve (0 at the source itself).
 double exact_angle(const ExactGeodesicSolver& solver, const TangentFrame& frame,

@@ -37,6 +37,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "core/base/errors.h"
@@ -107,7 +108,9 @@ class ExponentialMap {
  public:
   using Options = ExponentialMapOptions;
 
-  /// Both modes; `query` (and what it points to) must outlive this object.
+  /// Both modes; `query` (and what it points to) must outlive this object. Over a graph built on
+  /// a refinement (GeodesicQuery::refined), the map is computed on the refined mesh and given
+  /// on the query's mesh: its vertices, and angles in its frames.
   explicit ExponentialMap(const GeodesicQuery& query);
   /// Exact mode only (Graph throws InvalidInput "NoGraph").
   ExponentialMap(const TriangleMesh& mesh, const IntrinsicGeometry& geometry);
@@ -126,7 +129,16 @@ class ExponentialMap {
   /// with each sample's root (see root_) and the graph edge of a zero-distance root.
   void label_samples(double rho, double radius, const QueryInterrupt* interrupt);
 
-  const TriangleMesh* mesh_;
+  /// The source on the mesh computed on, and the angle that mesh's frame at it gives the
+  /// direction the given mesh's frame calls 0 (0 without a refinement).
+  std::pair<SurfacePoint, double> on_computed_mesh(const SurfacePoint& source) const;
+
+  /// Over a refinement: a query on the refined mesh (the graph's own), and the map to the
+  /// query's mesh; null otherwise. Declared first: the members below point into them.
+  std::unique_ptr<GeodesicQuery> refined_query_;
+  const RefinedSurface* refined_ = nullptr;
+  const IntrinsicGeometry* given_geometry_ = nullptr;  ///< the query's mesh's
+  const TriangleMesh* mesh_;  ///< the mesh computed on
   const IntrinsicGeometry* geometry_;
   const GeodesicQuery* query_ = nullptr;
   std::unique_ptr<QueryScratch> scratch_;  ///< for the distance field (graph mode)

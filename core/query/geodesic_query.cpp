@@ -111,5 +111,6 @@ const TriangleMesh& GeodesicQuery::mesh() const { return *mesh_; }
 const IntrinsicGeometry& GeodesicQuery::geometry() const { return *geometry_; }
 const ProximityGraphView& GeodesicQuery::graph() const { return engine_->graph(); }
 double GeodesicQuery::link_radius() const { return engine_->link_radius(); }
+const GeodesicQueryOptions& GeodesicQuery::options() const { return engine_->options(); }
 
 }  // namespace geoprox

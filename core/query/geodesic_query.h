@@ -208,6 +208,7 @@ class GeodesicQuery {
   const ProximityGraphView& graph() const;
   /// The refinement the graph was built on, or null.
   const RefinedSurface* refined() const { return refined_; }
+  const Options& options() const;
   /// rho: the graph's link radius (or, for an imported graph without one, the radius at which a
   /// disk holds 2 m_P samples on average).
   double link_radius() const;

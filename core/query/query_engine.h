@@ -138,6 +138,7 @@ class QueryEngine {
   const IntrinsicGeometry& geometry() const { return *geometry_; }
   const ProximityGraphView& graph() const { return graph_; }
   double link_radius() const { return link_radius_; }
+  const GeodesicQueryOptions& options() const { return options_; }
 
  private:
   using Links = QueryLinks;

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/apps/exponential_map.h"
 #include "core/base/errors.h"
 #include "core/graph/graph_file.h"
 #include "core/graph/graph_file_format.h"
@@ -205,6 +206,41 @@ TEST(RefinedGraph, TheBuildRefinesLongFacesAndAnswersInTheInputsIds) {
   EXPECT_THROW(query.distance(SurfacePoint::vertex(static_cast<std::uint32_t>(mesh.num_vertices())),
                               source, scratch),
                InvalidInput);
+}
+
+TEST(RefinedGraph, ExponentialMapsAreGivenOnTheInput) {
+  // The exact mode over the refined graph's query against the exact mode on the strip itself:
+  // the same vertices, distances and angles (the angles in the strip's own frames); the graph
+  // mode runs on the refinement and answers for the strip's vertices only.
+  const TriangleMesh& mesh = *strip().mesh;
+  const GeodesicQuery query(mesh, *strip().geometry, strip_graph().view(), *strip_graph().refined);
+  ExponentialMap on_refinement(query);
+  ExponentialMap on_input(mesh, *strip().geometry);
+  const double pi = std::acos(-1.0);
+  for (const SurfacePoint& source :
+       {SurfacePoint::face(205, 0.2, 0.3, 0.5), SurfacePoint::vertex(60), SurfacePoint::vertex(0),
+        SurfacePoint::edge(7, 0.25)}) {
+    ExponentialMapOptions options;
+    options.radius = 4;
+    options.mode = ExponentialMapMode::Exact;
+    const ExponentialMapResult a = on_refinement.compute(source, options);
+    const ExponentialMapResult b = on_input.compute(source, options);
+    EXPECT_EQ(a.source.to_string(), b.source.to_string());
+    ASSERT_EQ(a.vertices.size(), b.vertices.size()) << source.to_string();
+    for (std::size_t i = 0; i < a.vertices.size(); ++i) {
+      EXPECT_EQ(a.vertices[i].vertex, b.vertices[i].vertex);
+      EXPECT_NEAR(a.vertices[i].distance, b.vertices[i].distance, 1e-9);
+      const double turn = std::remainder(a.vertices[i].angle - b.vertices[i].angle, 2 * pi);
+      EXPECT_NEAR(turn, 0, 1e-6) << source.to_string() << " vertex " << a.vertices[i].vertex;
+    }
+    options.mode = ExponentialMapMode::Graph;
+    const ExponentialMapResult graph = on_refinement.compute(source, options);
+    ASSERT_FALSE(graph.vertices.empty());
+    for (const ExponentialMapVertex& v : graph.vertices) {
+      ASSERT_LT(v.vertex, mesh.num_vertices());
+      EXPECT_GE(v.distance, norm(mesh.position(v.vertex) - source.position(mesh)) * (1 - 1e-9));
+    }
+  }
 }
 
 TEST(RefinedGraph, WithoutRefinementTheBuildKeepsTheMeshAndWarns) {
