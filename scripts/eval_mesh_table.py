@@ -29,7 +29,8 @@ import subprocess
 import sys
 import time
 
-# Classes of the corpus meshes (/work/shared/meshes) and of scripts/make_cad_meshes.py's.
+# Classes of the optional corpus's meshes ($GEOPROX_SHARED_MESHES) and of
+# scripts/make_cad_meshes.py's.
 KNOWN_CLASSES = {
     "cylinder.obj": "CAD, long faces",
     "l-prism.obj": "CAD, long faces",
