@@ -1,7 +1,8 @@
 """geoprox: Python client of the geoprox geodesic query daemon (geoproxd).
 
-Standard library only (numpy, if importable, decodes base64 distance fields). The wire
-protocol is docs/protocol.md; docs/clients.md shows how to use this package.
+Standard library only (numpy, if importable, decodes base64 distance fields and binary
+arrays). The wire protocol is docs/protocol.md (TCP) and geoproxd's HTTP API
+(``Client("http://127.0.0.1:7880")``); docs/clients.md shows how to use this package.
 
     import geoprox
 
@@ -27,6 +28,7 @@ from .encoding import (
     decode_field_result,
     decode_u32le_base64,
 )
+from .httpclient import DEFAULT_HTTP_PORT, BinaryArray, HttpClient
 from .errors import (
     GeoproxConnectionError,
     GeoproxError,
@@ -51,6 +53,8 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Client",
+    "HttpClient",
+    "BinaryArray",
     "connect",
     "Pipeline",
     "Pending",
@@ -59,6 +63,7 @@ __all__ = [
     "request",
     "DEFAULT_HOST",
     "DEFAULT_PORT",
+    "DEFAULT_HTTP_PORT",
     "GeoproxError",
     "GeoproxConnectionError",
     "GeoproxTimeoutError",

@@ -1,4 +1,5 @@
-"""The geoprox client: newline-delimited JSON-RPC 2.0 over TCP (docs/protocol.md).
+"""The geoprox client: newline-delimited JSON-RPC 2.0 over TCP (docs/protocol.md), or over
+HTTP with ``Client("http://host:7880")`` (:mod:`geoprox.httpclient`).
 
 Three ways to send the same requests, with the same method signatures:
 
@@ -461,7 +462,18 @@ class Client(_Methods[Any]):
     The connection is opened again by the next request after it broke. :meth:`close` (or
     leaving the ``with`` block) closes it for good. A client may be shared by threads; their
     requests take turns.
+
+    A ``host`` that is an ``http://`` URL (``Client("http://127.0.0.1:7880")``, also from
+    ``GEOPROX_HOST``) makes a :class:`~geoprox.httpclient.HttpClient` instead: the same API
+    over geoproxd's HTTP port.
     """
+
+    def __new__(cls, host: Optional[str] = None, *args: Any, **options: Any) -> "Client":
+        if cls is Client and _is_url(host if host is not None else os.environ.get("GEOPROX_HOST")):
+            from .httpclient import HttpClient
+
+            return super().__new__(HttpClient)
+        return super().__new__(cls)
 
     def __init__(
         self,
@@ -891,6 +903,12 @@ class Client(_Methods[Any]):
             )
 
 
+def _is_url(host: Any) -> bool:
+    """True for a host given as a URL (``http://...``): the client is then an HttpClient."""
+    return isinstance(host, str) and "://" in host
+
+
 def connect(host: Optional[str] = None, port: Optional[int] = None, **options: Any) -> Client:
-    """A connected :class:`Client` (same arguments)."""
+    """A connected :class:`Client` (same arguments; an ``http://`` URL as ``host`` gives an
+    :class:`~geoprox.httpclient.HttpClient`)."""
     return Client(host, port, **options)

@@ -73,7 +73,11 @@ class GeoproxError(Exception):
         retryable: whether the same request may succeed later unchanged.
         retry_after_ms: how long to wait before retrying, when the server says so.
         data: the whole ``error.data`` object of the reply (empty for client errors).
+        http_status: the HTTP status of the reply that carried the error (HTTP transport:
+            401 or 403 for ``Unauthorized``...), else None.
     """
+
+    http_status: Optional[int] = None
 
     def __init__(
         self,

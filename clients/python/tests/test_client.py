@@ -1,11 +1,13 @@
 """Tests of the geoprox Python client against a real geoproxd.
 
 The daemon binary comes from the environment variable GEOPROXD (ctest sets it). The module
-starts one daemon on an ephemeral port with a temporary config and data directory serving
-data/meshes/spot.obj (its graph is built into a temporary directory at start), waits until
-spot is ready, and runs every method and error path through the client. A few tests use a
-tiny fake server on 127.0.0.1 instead, where the daemon cannot be made to misbehave on cue
-(replies in reverse order, a connection closed mid-request, a server that never answers).
+starts one daemon on ephemeral TCP and HTTP ports with a temporary config and data directory
+serving data/meshes/spot.obj (its graph is built into a temporary directory at start), waits
+until spot is ready, and runs every method and error path through the client, once over each
+transport: the live test classes run over TCP, and their Http* subclasses at the end over HTTP
+(``Client("http://...")``). A few tests use a tiny fake server on 127.0.0.1 instead, where the
+daemon cannot be made to misbehave on cue (replies in reverse order, a connection closed
+mid-request, a server that never answers). test_http.py has the HTTP transport's own tests.
 """
 
 from __future__ import annotations
@@ -72,7 +74,8 @@ SPOT_FACES = 5856
 
 
 class Daemon:
-    """A geoproxd subprocess on an ephemeral port, with its config and data in `root`."""
+    """A geoproxd subprocess on ephemeral TCP and HTTP ports (unless `http_port` is given),
+    with its config and data in `root`."""
 
     def __init__(self, binary: str, root: Path, name: str, **config: Any) -> None:
         self.root = root
@@ -82,6 +85,7 @@ class Daemon:
             "bind": "127.0.0.1",
             "port": 0,
             "admin_port": 0,
+            "http_port": 0,
             "compute_threads": 2,
             "build_threads": 2,
             "data_dir": "data",
@@ -105,9 +109,9 @@ class Daemon:
                 if k not in ("GEOPROX_ADMIN_TOKEN", "GEOPROX_QUERY_TOKEN")
             },
         )
-        self.port = self._wait_for_port(timeout=60.0)
+        self.port, self.http_port = self._wait_for_ports(timeout=60.0)
 
-    def _wait_for_port(self, timeout: float) -> int:
+    def _wait_for_ports(self, timeout: float) -> tuple[int, int]:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
@@ -115,7 +119,8 @@ class Daemon:
                     f"geoproxd exited with status {self.process.returncode}:\n{self.output()}"
                 )
             try:
-                return int(json.loads(self.port_file.read_text())["port"])
+                ports = json.loads(self.port_file.read_text())
+                return int(ports["port"]), int(ports["http_port"])
             except (OSError, ValueError, KeyError):
                 time.sleep(0.02)
         raise RuntimeError(f"geoproxd wrote no port file within {timeout} s:\n{self.output()}")
@@ -124,7 +129,14 @@ class Daemon:
         self.log.flush()
         return self.log_path.read_text(errors="replace")
 
-    def client(self, **options: Any) -> geoprox.Client:
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.http_port}"
+
+    def client(self, transport: str = "tcp", **options: Any) -> geoprox.Client:
+        """A client over `transport`: "tcp" (the query port) or "http" (the HTTP port)."""
+        if transport == "http":
+            return geoprox.Client(self.url, **options)
         return geoprox.Client("127.0.0.1", self.port, **options)
 
     def stop(self) -> int:
@@ -238,10 +250,14 @@ def tearDownModule() -> None:
 
 
 class LiveTestCase(unittest.TestCase):
-    """A client on the module's daemon for each test."""
+    """A client on the module's daemon for each test, over `transport` ("tcp" or "http")."""
+
+    transport = "tcp"
 
     def setUp(self) -> None:
-        self.client = daemon().client(timeout=60.0, admin_token=TOKEN)
+        self.client = daemon().client(self.transport, timeout=60.0, admin_token=TOKEN)
+        expected = geoprox.HttpClient if self.transport == "http" else geoprox.Client
+        self.assertIs(type(self.client), expected)
 
     def tearDown(self) -> None:
         self.client.close()
@@ -323,7 +339,7 @@ class QueryTest(LiveTestCase):
             self.assertEqual(float(d32), float32(d64), f"vertex {i}: {d32} vs {d64}")
             self.assertLessEqual(abs(float(d32) - d64), 6e-8 * d64 + 1e-30)
         # Without numpy, whatever is installed.
-        plain = geoprox.Client(port=daemon().port, use_numpy=False)
+        plain = daemon().client(self.transport, use_numpy=False)
         with plain:
             decoded = plain.field("spot", "v:0", encoding="f32le-base64")["distances"]
         self.assertIsInstance(decoded, array.array)
@@ -451,9 +467,16 @@ class InfoTest(LiveTestCase):
         self.client.distance("spot", "v:0", "v:1")
         metrics = self.client.metrics()
         self.assertEqual(metrics["format"], "prometheus-text-0.0.4")
-        self.assertIn(
-            'geoprox_requests_total{method="geodesic.distance",outcome="ok"}', metrics["text"]
-        )
+        counted = [
+            line
+            for line in metrics["text"].splitlines()
+            if line.startswith("geoprox_requests_total{")
+            and 'method="geodesic.distance"' in line
+            and 'outcome="ok"' in line
+            and f'transport="{self.transport}"' in line
+        ]
+        self.assertEqual(len(counted), 1, metrics["text"])
+        self.assertGreaterEqual(float(counted[0].rsplit(" ", 1)[1]), 1)
 
     def test_timeout_ms_is_sent(self) -> None:
         self.assertTrue(self.client.health(timeout_ms=5000)["ready"])
@@ -512,8 +535,11 @@ class ErrorTest(LiveTestCase):
             -32020,
             lambda: self.client.call("server.health", {"pad": "x" * (2 << 20)}),
         )
-        self.assertIn("line", error.message)
-        self.assertTrue(self.client.health()["ready"])  # the connection is still usable
+        if self.transport == "tcp":
+            self.assertIn("line", error.message)
+        else:
+            self.assertEqual(error.http_status, 413)
+        self.assertTrue(self.client.health()["ready"])  # the client is still usable
         with self.assertRaises(TypeError):
             self.client.distance("spot", 0, 1)  # type: ignore[arg-type]
         with self.assertRaises(ValueError):
@@ -522,22 +548,24 @@ class ErrorTest(LiveTestCase):
     def test_unreachable_and_admin(self) -> None:
         c = self.client
         self.check(Reason.UNAUTHORIZED, -32040, lambda: c.admin_reload(token="wrong"))
-        anonymous = daemon().client()
+        anonymous = daemon().client(self.transport)
         with anonymous:
             self.check(Reason.UNAUTHORIZED, -32040, lambda: anonymous.admin_reload())
         self.check(Reason.MESH_EXISTS, -32004, lambda: c.admin_register("spot", "meshes/spot.obj"))
         self.check(Reason.PATH_NOT_ALLOWED, -32602, lambda: c.admin_register("x", "../etc/passwd"))
         self.check(Reason.NOT_FOUND, -32006, lambda: c.admin_register("x", "meshes/missing.obj"))
 
+        # A graph file of each transport's own: the other's would be loaded, not built.
+        graph_file = f"two-{self.transport}.geoprox"
         summary = c.admin_register(
-            "two", "meshes/two_components.obj", graph_file="two.geoprox", build={"samples": 8}
+            "two", "meshes/two_components.obj", graph_file=graph_file, build={"samples": 8}
         )
         self.assertEqual(summary["mesh"], "two")
         self.assertIn(summary["state"], ("building", "ready"))
         try:
             (entry,) = c.wait_ready("two", timeout=120)
             self.assertEqual(entry["vertices"], 8)
-            self.assertTrue(c.mesh_info("two")["graph_file"].endswith("two.geoprox"))
+            self.assertTrue(c.mesh_info("two")["graph_file"].endswith(graph_file))
             self.check(Reason.UNREACHABLE, -32010, lambda: c.distance("two", "v:0", "v:5"))
             self.check(Reason.UNREACHABLE, -32010, lambda: c.path("two", "v:0", "v:5"))
             matrix = c.matrix("two", ["v:0", "v:4"], ["v:1", "v:5"])
@@ -604,7 +632,8 @@ class PipelineTest(LiveTestCase):
         self.assertReason(bad.exception(), Reason.UNKNOWN_MESH, -32001)
         with self.assertRaises(ServerError):
             bad.result()
-        self.assertReason(big.exception(), Reason.TOO_LARGE, -32020)  # null id, matched by size
+        # TCP: null id, matched by size; HTTP: a body over the limit, sent alone.
+        self.assertReason(big.exception(), Reason.TOO_LARGE, -32020)
         self.assertEqual(len(field.result()["distances"]), SPOT_VERTICES)
         self.assertIs(outcomes[1], bad.exception())
         self.assertEqual(len(pipe), 0)  # the pipeline can be used again
@@ -627,6 +656,8 @@ class PipelineTest(LiveTestCase):
         with self.assertRaises(RuntimeError):
             pending.result()
 
+
+class FakePipelineTest(unittest.TestCase):
     def test_replies_out_of_order_and_sent_before_read(self) -> None:
         # The fake server answers only once it has read all 100 requests, in reverse order:
         # a client that waited for each reply before sending the next would time out.
@@ -641,6 +672,23 @@ class PipelineTest(LiveTestCase):
             with client.pipeline() as pipe:
                 pending = [pipe.call("echo", {"n": i}) for i in range(100)]
             self.assertEqual([p.result()["echo"]["n"] for p in pending], list(range(100)))
+
+
+# The same live tests over the HTTP port (POST /v1/rpc; pipelines as batch arrays).
+class HttpQueryTest(QueryTest):
+    transport = "http"
+
+
+class HttpInfoTest(InfoTest):
+    transport = "http"
+
+
+class HttpErrorTest(ErrorTest):
+    transport = "http"
+
+
+class HttpPipelineTest(PipelineTest):
+    transport = "http"
 
 
 class ConnectionTest(unittest.TestCase):
