@@ -22,6 +22,7 @@ import array as _array
 import http.client
 import json
 import math
+import os
 import select
 import socket
 import sys
@@ -184,7 +185,7 @@ class HttpClient(Client):
         max_batch_requests: int = 1000,
         connect: bool = True,
     ) -> None:
-        self.url = host or ""
+        self.url = host or os.environ.get("GEOPROX_HOST") or ""
         parts = urllib.parse.urlsplit(self.url)
         if parts.scheme.lower() != "http":
             raise ValueError(f"not an http:// URL: {self.url!r} (https is not supported)")
