@@ -87,6 +87,29 @@ def _idempotent(req: Request) -> bool:
     return True
 
 
+# Methods whose replies may be large: a pipeline sends them alone, not in a batch array, whose
+# replies together are bounded by the server's max_output_bytes.
+_ALONE = frozenset({"geodesic.field", "geodesic.matrix", "geodesic.expmap", "batch"})
+
+
+def _points(req: Request) -> int:
+    """The points a request names, as the server counts them against max_points_per_request."""
+    if req.method == "batch":
+        entries = req.params.get("requests") or []
+        return sum(
+            _points(Request(str(e.get("method", "")), dict(e.get("params") or {})))
+            for e in entries
+            if isinstance(e, Mapping)
+        )
+    count = 0
+    for key in ("source", "target"):
+        count += key in req.params
+    for key in ("sources", "targets", "control"):
+        value = req.params.get(key)
+        count += len(value) if isinstance(value, (list, tuple)) else 0
+    return count
+
+
 def _retry_after_ms(headers: http.client.HTTPMessage) -> Optional[int]:
     value = headers.get("Retry-After")
     try:
@@ -164,9 +187,12 @@ class HttpClient(Client):
         (a late reply cannot be told from the next one) and the next request opens another.
 
     :meth:`pipeline` and :meth:`call_many` send the queued requests as JSON-RPC batch arrays,
-    each at most ``max_batch_requests`` requests and ``max_line_bytes`` bytes (``server_info()``
-    updates both; a request longer than that goes alone and gets its own ``TooLarge``). To a
-    server that refuses batch arrays they are sent one after another instead.
+    each within the server's limits on a whole array: ``max_batch_requests`` requests,
+    ``max_line_bytes`` bytes and ``max_points_per_request`` points (``server_info()`` updates
+    them; a request over a limit by itself goes alone and gets its own ``TooLarge``). Fields,
+    matrices, exponential maps and ``batch`` calls go alone too (the replies of an array share
+    one ``max_output_bytes``). To a server that refuses batch arrays, requests are sent one
+    after another instead.
     """
 
     def __init__(
@@ -208,6 +234,8 @@ class HttpClient(Client):
         )
         #: The server's max_batch_requests as far as the client knows (server_info() updates it).
         self.max_batch_requests = max_batch_requests
+        #: The server's max_points_per_request, which bounds the points of a whole batch array.
+        self.max_points_per_request = 10000
         self._conn: Optional[http.client.HTTPConnection] = None
         self._conn_used = False  # the connection has carried a reply: it may have gone stale
         self._batch_arrays = True  # False once the server refused a batch array
@@ -371,21 +399,31 @@ class HttpClient(Client):
     def _chunks(
         self, encoded: list[tuple[Pending, int, bytes]]
     ) -> list[list[tuple[Pending, int, bytes]]]:
-        """Groups requests into batch arrays within the server's limits, in order; a request
-        longer than max_line_bytes by itself is alone."""
+        """Groups requests into batch arrays, in order, within the limits the server puts on
+        a whole array (requests, bytes, points). Requests that may answer much (fields,
+        matrices...) go alone: an array's replies share one max_output_bytes."""
         chunks: list[list[tuple[Pending, int, bytes]]] = []
-        size = 0
+        size = points = 0
+        alone = False  # the last chunk holds a request that goes alone
         for item in encoded:
             n = len(item[2]) + 1  # and a comma or a bracket
+            k = _points(item[0].request)
+            this_alone = item[0].request.method in _ALONE
             if (
                 not chunks
+                or alone
+                or this_alone
                 or len(chunks[-1]) >= self.max_batch_requests
                 or size + n + 1 > self.max_line_bytes
+                or points + k > self.max_points_per_request
             ):
                 chunks.append([])
                 size = 1
+                points = 0
             chunks[-1].append(item)
             size += n
+            points += k
+            alone = this_alone
         return chunks
 
     def _run_chunk(self, chunk: list[tuple[Pending, int, bytes]], timeout: Optional[float]) -> None:
@@ -496,6 +534,9 @@ class HttpClient(Client):
             limit = result.get("limits", {}).get("max_batch_requests")
             if isinstance(limit, int) and limit > 0:
                 self.max_batch_requests = limit
+            limit = result.get("limits", {}).get("max_points_per_request")
+            if isinstance(limit, int) and limit > 0:
+                self.max_points_per_request = limit
         return result
 
     # ---- binary arrays from the resource endpoints ----

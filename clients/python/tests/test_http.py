@@ -521,16 +521,26 @@ class FakeServerTest(unittest.TestCase):
         with FakeHttpServer(handle) as server:
             with geoprox.Client(server.url, timeout=10, max_batch_requests=3,
                                 max_line_bytes=2000) as client:
+                client.max_points_per_request = 5
                 with client.pipeline() as pipe:
                     small = [pipe.call("m", {"i": i}) for i in range(7)]
                     big = pipe.call("m", {"pad": "x" * 3000})  # alone: over max_line_bytes
                     last = pipe.call("m", {"i": 7})
+                    distances = [pipe.distance("s", "v:0", "v:1") for _ in range(2)]
+                    matrix = pipe.matrix("s", ["v:0"], ["v:1", "v:2"])  # alone: a large reply
+                    many = pipe.call("m", {"sources": ["v:0"] * 4})
+                    distances.append(pipe.distance("s", "v:0", "v:1"))  # 4 + 2 points > 5
+                    after = pipe.health()
             self.assertEqual([p.result()["echo"]["i"] for p in small], list(range(7)))
             self.assertEqual(len(big.result()["echo"]["pad"]), 3000)
             self.assertEqual(last.result(), {"echo": {"i": 7}})
+            self.assertEqual(distances[1].result()["echo"]["target"], "v:1")
+            self.assertEqual(matrix.result()["echo"]["targets"], ["v:1", "v:2"])
+            self.assertEqual(many.result()["echo"]["sources"], ["v:0"] * 4)
+            self.assertEqual(after.result(), {"echo": {}})
             bodies = [r[3] for r in server.requests]
-            shapes = [len(b) if isinstance(b, list) else "single" for b in bodies]
-            self.assertEqual(shapes, [3, 3, "single", "single", "single"])
+            shapes = [len(b) if isinstance(b, list) else b["method"] for b in bodies]
+            self.assertEqual(shapes, [3, 3, "m", "m", 3, "geodesic.matrix", "m", 2])
             self.assertTrue(all(r[:2] == ("POST", "/v1/rpc") for r in server.requests))
             self.assertTrue(all(r[2]["content-type"] == "application/json"
                                 for r in server.requests))
