@@ -82,6 +82,7 @@ class Daemon:
             "bind": "127.0.0.1",
             "port": 0,
             "admin_port": 0,
+            "http_port": 0,
             "compute_threads": 2,
             "build_threads": 2,
             "data_dir": "data",
