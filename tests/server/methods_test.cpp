@@ -315,6 +315,7 @@ TEST_F(MethodsTest, UnreachableIsAnErrorInDistanceAndNullInMatrix) {
   Config config;
   config.port = 0;
   config.admin_port = 0;
+  config.http_port = 0;
   config.compute_threads = 1;
   config.build_threads = 1;
   config.data_dir = dir.path() / "data";

@@ -127,6 +127,7 @@ inline Config spot_config(const TestData& data) {
   Config config;
   config.port = 0;
   config.admin_port = 0;
+  config.http_port = 0;
   config.compute_threads = 2;
   config.build_threads = 2;
   config.data_dir = data.data_dir();

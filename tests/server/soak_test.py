@@ -121,7 +121,7 @@ def main() -> None:
         log = open(log_path, "wb")
         daemon = subprocess.Popen(
             [args.geoproxd, "--config", str(config_path), "--bind", "127.0.0.1", "--port", "0",
-             "--admin-port", str(free_port()), "--port-file", str(port_file)],
+             "--admin-port", str(free_port()), "--http-port", "0", "--port-file", str(port_file)],
             stdout=log, stderr=subprocess.STDOUT)
 
         def daemon_output() -> str:

@@ -341,6 +341,7 @@ std::string http_get(std::uint16_t port, const std::string& path) {
 TEST_F(TransportTest, AdminHttpServesMetricsLivenessAndReadiness) {
   Config config = spot_config(*data_);
   config.admin_port = 0;
+  config.http_port = 0;
   RunningServer probe(config);
   EXPECT_EQ(probe.server->admin_port(), 0);  // 0 = off
   // An ephemeral admin port: bind to a free port chosen by the kernel first.
