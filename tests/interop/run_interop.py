@@ -6,7 +6,8 @@ client library from npm (version pinned by package.json and package-lock.json be
 
 1. Starts GEOPROXD on the shipped config (configs/default.json: spot and dragon; only its
    data_dir and graph_dir point at the repository's data/ and a temporary graph directory) with
-   --port 0 --admin-port 0 --http-port 0 --port-file, and waits until every mesh is ready.
+   --port 0 --admin-port 0 --http-port P --port-file, P a port found free (--http-port 0 turns
+   HTTP off: another P if it was taken meanwhile), and waits until every mesh is ready.
 2. Asks the daemon, with the Python client (clients/python) over TCP, for mesh.list and a few
    geodesic.distance answers: the expected values, written to a JSON file.
 3. Runs jayson.test.js under node's test runner with the daemon's TCP and HTTP ports and that
@@ -22,6 +23,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -38,6 +40,12 @@ QUERIES = [
     {"mesh": "dragon", "source": "v:0", "target": "v:5000"},
     {"mesh": "dragon", "source": "v:17", "target": "v:9999", "exact": True},
 ]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def fail(message: str) -> None:
@@ -66,41 +74,56 @@ def main() -> int:
         config_path.write_text(json.dumps(config, indent=2))
         port_file = root / "ports.json"
         log_path = root / "geoproxd.log"
-        with open(log_path, "wb") as log:
-            daemon = subprocess.Popen(
-                [geoproxd, "--config", str(config_path), "--bind", "127.0.0.1", "--port", "0",
-                 "--admin-port", "0", "--http-port", "0", "--port-file", str(port_file)],
-                stdout=log, stderr=subprocess.STDOUT,
-                env={k: v for k, v in os.environ.items()
-                     if k not in ("GEOPROX_ADMIN_TOKEN", "GEOPROX_QUERY_TOKEN")})
-            try:
-                status = run(daemon, port_file, log_path, root, geoprox)
-            finally:
-                if daemon.poll() is None:
-                    daemon.send_signal(signal.SIGTERM)
-                    try:
-                        daemon.wait(timeout=30)
-                    except subprocess.TimeoutExpired:
-                        daemon.kill()
-                        daemon.wait()
+        for attempt in range(3):
+            with open(log_path, "wb") as log:
+                daemon = subprocess.Popen(
+                    [geoproxd, "--config", str(config_path), "--bind", "127.0.0.1",
+                     "--port", "0", "--admin-port", "0", "--http-port", str(free_port()),
+                     "--port-file", str(port_file)],
+                    stdout=log, stderr=subprocess.STDOUT,
+                    env={k: v for k, v in os.environ.items()
+                         if k not in ("GEOPROX_ADMIN_TOKEN", "GEOPROX_QUERY_TOKEN")})
+                try:
+                    ports = wait_for_ports(daemon, port_file, log_path)
+                    if ports is None and attempt < 2:
+                        continue  # the free port was taken meanwhile: another one
+                    if ports is None:
+                        fail(f"geoproxd could not listen:\n{log_path.read_text()}")
+                    status = run(ports, root, geoprox, log_path)
+                finally:
+                    if daemon.poll() is None:
+                        daemon.send_signal(signal.SIGTERM)
+                        try:
+                            daemon.wait(timeout=30)
+                        except subprocess.TimeoutExpired:
+                            daemon.kill()
+                            daemon.wait()
+                break
         if daemon.returncode != 0:
             fail(f"geoproxd exited with status {daemon.returncode}:\n{log_path.read_text()}")
     return status
 
 
-def run(daemon: subprocess.Popen, port_file: Path, log_path: Path, root: Path, geoprox) -> int:
+def wait_for_ports(daemon: subprocess.Popen, port_file: Path,
+                   log_path: Path) -> "tuple[int, int] | None":
+    """The daemon's TCP and HTTP ports from its port file; None if its HTTP port was in use."""
     deadline = time.monotonic() + 60
     while True:
         if daemon.poll() is not None:
+            if "in use" in log_path.read_text():
+                return None
             fail(f"geoproxd exited with status {daemon.returncode}:\n{log_path.read_text()}")
         try:
             ports = json.loads(port_file.read_text())
-            tcp_port, http_port = int(ports["port"]), int(ports["http_port"])
-            break
+            return int(ports["port"]), int(ports["http_port"])
         except (OSError, ValueError, KeyError):
             if time.monotonic() > deadline:
                 fail(f"geoproxd wrote no port file within 60 s:\n{log_path.read_text()}")
             time.sleep(0.02)
+
+
+def run(ports: "tuple[int, int]", root: Path, geoprox, log_path: Path) -> int:
+    tcp_port, http_port = ports
 
     with geoprox.Client("127.0.0.1", tcp_port, timeout=60) as client:
         meshes = client.wait_ready(timeout=300)

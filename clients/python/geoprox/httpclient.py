@@ -152,12 +152,17 @@ class _Reply:
             else (Reason.INVALID_REQUEST, -32600, False),
         )
         text = self.body[:200].decode("utf-8", "replace").strip()
+        retry_after_ms = _retry_after_ms(self.headers)
+        data: dict[str, Any] = {"reason": reason, "retryable": retryable}
+        if retry_after_ms is not None:
+            data["retry_after_ms"] = retry_after_ms
         out = ServerError(
             f"HTTP {self.status} {self.reason}" + (f": {text}" if text else ""),
             code=code,
             reason=reason,
             retryable=retryable,
-            retry_after_ms=_retry_after_ms(self.headers),
+            retry_after_ms=retry_after_ms,
+            data=data,  # as the server's error object would have it
         )
         out.http_status = self.status
         return out
@@ -331,9 +336,19 @@ class HttpClient(Client):
             reused = self._conn_used
             try:
                 conn.sock.settimeout(timeout)
-                conn.request(method, target, body=body, headers=all_headers)
-                response = conn.getresponse()
-                data = response.read()
+                send_error: Optional[OSError] = None
+                try:
+                    conn.request(method, target, body=body, headers=all_headers)
+                except _DROPPED as e:
+                    # The server may have answered before it stopped reading (413): read on.
+                    send_error = e
+                try:
+                    response = conn.getresponse()
+                    data = response.read()
+                except (OSError, http.client.HTTPException):
+                    if send_error is None:
+                        raise
+                    raise send_error from None
             except socket.timeout:
                 self._drop()  # its late reply would be taken for the next request's
                 raise GeoproxTimeoutError(

@@ -73,9 +73,16 @@ SPOT_VERTICES = 2930
 SPOT_FACES = 5856
 
 
+def free_port() -> int:
+    """A port of 127.0.0.1 that was free a moment ago."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 class Daemon:
-    """A geoproxd subprocess on ephemeral TCP and HTTP ports (unless `http_port` is given),
-    with its config and data in `root`."""
+    """A geoproxd subprocess on an ephemeral TCP port and a free HTTP port (`http_port`, unless
+    given: geoproxd's http_port 0 turns HTTP off), with its config and data in `root`."""
 
     def __init__(self, binary: str, root: Path, name: str, **config: Any) -> None:
         self.root = root
@@ -97,19 +104,29 @@ class Daemon:
         }
         document.update(config)
         config_path = root / f"{name}.json"
-        config_path.write_text(json.dumps(document, indent=2))
-        self.log = open(self.log_path, "wb")
-        self.process = subprocess.Popen(
-            [binary, "--config", str(config_path), "--port-file", str(self.port_file)],
-            stdout=self.log,
-            stderr=subprocess.STDOUT,
-            env={
-                k: v
-                for k, v in os.environ.items()
-                if k not in ("GEOPROX_ADMIN_TOKEN", "GEOPROX_QUERY_TOKEN")
-            },
-        )
-        self.port, self.http_port = self._wait_for_ports(timeout=60.0)
+        for attempt in range(3):
+            if "http_port" not in config:
+                document["http_port"] = free_port()
+            config_path.write_text(json.dumps(document, indent=2))
+            self.log = open(self.log_path, "wb")
+            self.process = subprocess.Popen(
+                [binary, "--config", str(config_path), "--port-file", str(self.port_file)],
+                stdout=self.log,
+                stderr=subprocess.STDOUT,
+                env={
+                    k: v
+                    for k, v in os.environ.items()
+                    if k not in ("GEOPROX_ADMIN_TOKEN", "GEOPROX_QUERY_TOKEN")
+                },
+            )
+            try:
+                self.port, self.http_port = self._wait_for_ports(timeout=60.0)
+                return
+            except RuntimeError:
+                self.log.close()
+                # The free port was taken in the meantime: another one.
+                if attempt == 2 or "http_port" in config or "in use" not in self.output():
+                    raise
 
     def _wait_for_ports(self, timeout: float) -> tuple[int, int]:
         deadline = time.monotonic() + timeout
@@ -126,7 +143,8 @@ class Daemon:
         raise RuntimeError(f"geoproxd wrote no port file within {timeout} s:\n{self.output()}")
 
     def output(self) -> str:
-        self.log.flush()
+        if not self.log.closed:
+            self.log.flush()
         return self.log_path.read_text(errors="replace")
 
     @property

@@ -204,13 +204,17 @@ class LiveHttpTest(unittest.TestCase):
                  400),
                 (lambda: client.admin_register("spot", "meshes/spot.obj"), Reason.MESH_EXISTS,
                  409),
-                (lambda: client.admin_reload(token="wrong"), Reason.UNAUTHORIZED, 403),
             ]
             for call, reason, status in cases:
                 with self.subTest(reason=reason), self.assertRaises(ServerError) as caught:
                     call()
                 self.assertEqual(caught.exception.reason, reason)
                 self.assertEqual(caught.exception.http_status, status)
+            # A wrong admin token (in params, no bearer token on an open server): 401 or 403.
+            with self.assertRaises(ServerError) as caught:
+                client.admin_reload(token="wrong")
+            self.assertEqual(caught.exception.reason, Reason.UNAUTHORIZED)
+            self.assertIn(caught.exception.http_status, (401, 403))
             # In a pipeline (a batch array, status 200) the errors have no status of their own.
             pipe = client.pipeline()
             bad, good = pipe.mesh_info("nope"), pipe.health()
@@ -259,8 +263,10 @@ class BearerTokenTest(unittest.TestCase):
         status, headers, _ = raw_get(self.daemon.http_port, "/v1/meshes")
         self.assertEqual(status, 401)
         self.assertTrue(headers.get("WWW-Authenticate", "").startswith("Bearer"))
-        self.assertEqual(raw_get(self.daemon.http_port, "/healthz")[::2], (200, "ok"))
-        self.assertEqual(raw_get(self.daemon.http_port, "/readyz")[::2], (200, "ready"))
+        status, _, body = raw_get(self.daemon.http_port, "/healthz")
+        self.assertEqual((status, body.strip()), (200, "ok"))
+        status, _, body = raw_get(self.daemon.http_port, "/readyz")
+        self.assertEqual((status, body.strip()), (200, "ready"))
 
     def test_wrong_token_is_403_unauthorized(self) -> None:
         for token in ("wrong", TOKEN):
