@@ -176,6 +176,13 @@ class LiveHttpTest(unittest.TestCase):
             rows = client.matrix("spot", sources, targets)["distances"]
             self.assertEqual(list(matrix.values), rows[0] + rows[1])
 
+            if geoprox.HAVE_NUMPY:
+                with self.client() as with_numpy:
+                    shaped = with_numpy.array("spot", "matrix",
+                                              {"sources": sources, "targets": targets})
+                self.assertEqual(shaped.values.shape, (2, 3))
+                self.assertEqual(shaped.values.tolist(), rows)
+
             positions = client.array("spot", "geometry")
             self.assertEqual((positions.shape, positions.dtype), ((SPOT_VERTICES, 3), "float64"))
             triangles = client.array("spot", "geometry", array="triangles")
