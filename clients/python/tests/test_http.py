@@ -347,6 +347,24 @@ class RestartTest(unittest.TestCase):
                     daemon.stop()
 
 
+    def test_daemon_closes_idle_keep_alive_connection(self) -> None:
+        daemon = start("idle", limits={"read_timeout_ms": 200})
+        try:
+            with daemon.client("http", timeout=30) as client:
+                expected = client.distance("spot", "v:0", "v:42")["distance"]
+                first = client.socket
+                time.sleep(1.0)  # the daemon closes the idle connection after 0.2 s
+                self.assertEqual(client.distance("spot", "v:0", "v:42")["distance"], expected)
+                self.assertIsNot(client.socket, first)  # a new one, transparently
+                second = client.socket
+                with client.pipeline() as pipe:  # a pipeline too, on a connection kept alive
+                    pending = [pipe.distance("spot", "v:0", f"v:{i}") for i in range(40, 45)]
+                self.assertEqual(pending[2].result()["distance"], expected)
+                self.assertIs(client.socket, second)
+        finally:
+            self.assertEqual(daemon.stop(), 0)
+
+
 class FakeHttpServer:
     """A one-connection-at-a-time HTTP server on 127.0.0.1 whose behaviour per connection is
     `handle(connection, read_request)`; `read_request()` reads one request (method, path,
