@@ -187,7 +187,7 @@ TEST_F(TransportTest, ClientDisconnectingMidFieldCancelsItsWork) {
   EXPECT_EQ(server.server->metrics().connections.load(), 1);
   // At least one of them was cancelled (recorded as DeadlineExceeded, never sent).
   const std::string text = server.server->service().metrics_text();
-  EXPECT_NE(text.find("geoprox_requests_total{method=\"geodesic.field\",outcome=\"DeadlineExceeded\"}"),
+  EXPECT_NE(text.find("geoprox_requests_total{transport=\"tcp\",method=\"geodesic.field\",outcome=\"DeadlineExceeded\"}"),
             std::string::npos)
       << text.substr(0, 2000);
 }
@@ -364,7 +364,7 @@ TEST_F(TransportTest, AdminHttpServesMetricsLivenessAndReadiness) {
   Client(server.port()).result("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}});
   const std::string metrics = http_get(admin, "/metrics");
   EXPECT_NE(metrics.find("HTTP/1.1 200 OK"), std::string::npos);
-  EXPECT_NE(metrics.find("geoprox_requests_total{method=\"geodesic.distance\",outcome=\"ok\"} 1"),
+  EXPECT_NE(metrics.find("geoprox_requests_total{transport=\"tcp\",method=\"geodesic.distance\",outcome=\"ok\"} 1"),
             std::string::npos)
       << metrics;
   EXPECT_NE(metrics.find("geoprox_ready 1"), std::string::npos);
