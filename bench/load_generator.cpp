@@ -1,10 +1,11 @@
-// Load generator for geoproxd (issue 5 §6, issue 8 §2): N TCP connections speaking the protocol,
-// each keeping up to `depth` requests in flight (pipelining), a mix of methods on random surface
-// points plus an optional fraction of bad requests, for a fixed duration. Every request is
-// accounted for: each one sent must get exactly one reply with its id (a bad request: its
-// expected error reason), within a drain period after the run. Reports throughput, latency
-// percentiles (p50/p99/p999/max, from the moment a request is queued for writing to the moment
-// its reply line is read), errors by reason and, with --daemon-pid, the daemon's resident memory.
+// Load generator for geoproxd (issue 5 §6, issue 8 §2, issue 40): N connections speaking the
+// TCP protocol (or, with --http, the HTTP API), each keeping up to `depth` requests in flight
+// (pipelining), a mix of methods on random surface points plus an optional fraction of bad
+// requests, for a fixed duration. Every request is accounted for: each one sent must get exactly
+// one reply (a bad request: its expected error reason), within a drain period after the run.
+// Reports throughput, latency percentiles (p50/p99/p999/max, from the moment a request is queued
+// for writing to the moment its reply is read), errors by reason and, with --daemon-pid, the
+// daemon's resident memory.
 //
 //   load_generator [--host 127.0.0.1] [--port 7878] [--mesh spot] [--connections 16]
 //                  [--depth 8] [--duration 10] [--warmup 1] [--rate 0] [--arrivals even]
@@ -12,7 +13,21 @@
 //                  [--encoding f32le-base64|json] [--matrix-size 4] [--seed 1]
 //                  [--bad 0] [--drain 10] [--allow-errors REASON,...]
 //                  [--daemon-pid PID] [--rss-every 0] [--json FILE]
+//   load_generator --http [--port 7880] [--depth 1] [the same options]
 //   load_generator --in-process MESH GRAPH [--threads 2] [--duration 10] [--points face|vertex]
+//
+// --http: each connection is a keep-alive HTTP/1.1 connection to the daemon's HTTP port (--port
+// defaults to 7880) and each request a `POST /v1/meshes/{mesh}/distance|path|field|matrix` whose
+// body is the TCP method's params without "mesh" (exact=1 in the mix: distance with "exact":
+// true); the mesh's shape comes from `GET /v1/meshes/{mesh}`. --depth defaults to 1 there;
+// above 1 the connection pipelines: requests written back to back, responses matched to them in
+// order. Responses are read with Boost.Beast (Content-Length or chunked bodies). A 2xx status
+// is a result; any other an error whose reason is the body's error.data.reason ("HTTP 503" when
+// the body has none), counted and tolerated (--allow-errors) as over TCP. A response with
+// `Connection: close` makes the connection reconnect and resend what was still unanswered
+// (counted as reconnects and resent, not as failures; the resent requests keep their first
+// send time), as does a server closing an idle keep-alive connection; a connection closed
+// with requests in flight, without that header, counts as dropped.
 //
 // --rate R (requests/s over all connections) paces the requests (open loop; a request whose
 // slot comes while `depth` are in flight is counted as "late" and sent when a slot frees);
@@ -40,6 +55,14 @@
 // The point kinds corrupt the first point of the request's method (distance, path, field or
 // matrix, as picked by --mix). A null-id reply is matched to the connection's oldest missing-id
 // request; one more null-id reply than those (e.g. an answered notification) is unexpected.
+// Over HTTP the kinds are the ones that exist there, each with its status too (the status and
+// the reason must both match):
+//   malformed-json     the body cut short                      400 ParseError
+//   unknown-method     POST .../distances (no such resource)   404 NotFound
+//   unknown-mesh       POST /v1/meshes/no-such-mesh/...        404 UnknownMesh
+//   face-out-of-range, bary-off-simplex, wrong-type            400, as over TCP
+//   nan-coordinate     as over TCP                             400 ParseError
+//   mesh-in-body       the body names the mesh too             400 InvalidParams
 //
 // Exit status 0 only when: every request got exactly one reply (none lost after --drain
 // seconds, no reply with an unknown or repeated id, no unreadable line), no good request failed
@@ -58,6 +81,8 @@
 #include <utility>  // before Boost.Asio 1.74: its awaitable.hpp uses std::exchange
 
 #include <boost/asio.hpp>
+#include <boost/beast/core/flat_buffer.hpp>
+#include <boost/beast/http.hpp>
 
 #include <unistd.h>
 
@@ -81,6 +106,7 @@
 #include <string_view>
 #include <random>
 #include <set>
+#include <span>
 #include <string>
 #include <thread>
 #include <unordered_map>
@@ -95,6 +121,7 @@
 namespace {
 
 namespace asio = boost::asio;
+namespace http = boost::beast::http;
 using asio::ip::tcp;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
@@ -103,6 +130,7 @@ using geoprox::bench::write_atomically;
 struct Options {
   std::string host = "127.0.0.1";
   std::uint16_t port = 7878;
+  bool http = false;  ///< the HTTP API (POST /v1/meshes/{mesh}/...) instead of the TCP protocol
   std::string mesh = "spot";
   int connections = 16;
   int depth = 8;
@@ -144,6 +172,7 @@ std::vector<std::string> split(const std::string& text, char separator) {
 
 Options parse(int argc, char** argv) {
   Options o;
+  bool port_given = false, depth_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -151,10 +180,17 @@ Options parse(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "--host") o.host = next();
-    else if (a == "--port") o.port = static_cast<std::uint16_t>(std::stoi(next()));
+    else if (a == "--port") {
+      o.port = static_cast<std::uint16_t>(std::stoi(next()));
+      port_given = true;
+    }
+    else if (a == "--http") o.http = true;
     else if (a == "--mesh") o.mesh = next();
     else if (a == "--connections") o.connections = std::stoi(next());
-    else if (a == "--depth") o.depth = std::stoi(next());
+    else if (a == "--depth") {
+      o.depth = std::stoi(next());
+      depth_given = true;
+    }
     else if (a == "--duration") o.duration = std::stod(next());
     else if (a == "--warmup") o.warmup = std::stod(next());
     else if (a == "--rate") o.rate = std::stod(next());
@@ -195,6 +231,17 @@ Options parse(int argc, char** argv) {
   }
   if (!(o.bad >= 0 && o.bad <= 1)) usage("--bad wants a fraction in [0, 1]");
   if (o.mix.empty()) usage("--mix is empty");
+  if (o.http) {
+    if (!port_given) o.port = 7880;
+    if (!depth_given) o.depth = 1;
+    for (const auto& [method, weight] : o.mix) {
+      if (method != "distance" && method != "exact" && method != "path" && method != "field" &&
+          method != "matrix") {
+        usage("--http: --mix method " + method + " is not one of distance, exact, path, field, "
+              "matrix");
+      }
+    }
+  }
   return o;
 }
 
@@ -265,15 +312,31 @@ struct BadKind {
   const char* name;
   const char* reason;  ///< expected data.reason; "" for a notification, which gets no reply
   bool null_id;        ///< answered with id null: the request has no id to echo
+  unsigned status;     ///< HTTP: the status it must get; 0 over TCP
 };
 constexpr BadKind kBadKinds[] = {
-    {"malformed-json", "ParseError", false},   {"unknown-method", "UnknownMethod", false},
-    {"unknown-mesh", "UnknownMesh", false},    {"face-out-of-range", "FaceOutOfRange", false},
-    {"bary-off-simplex", "BadBarycentric", false}, {"nan-coordinate", "ParseError", false},
-    {"wrong-type", "BadPoint", false},         {"missing-id", "InvalidRequest", true},
-    {"notification", "", false},
+    {"malformed-json", "ParseError", false, 0},
+    {"unknown-method", "UnknownMethod", false, 0},
+    {"unknown-mesh", "UnknownMesh", false, 0},
+    {"face-out-of-range", "FaceOutOfRange", false, 0},
+    {"bary-off-simplex", "BadBarycentric", false, 0},
+    {"nan-coordinate", "ParseError", false, 0},
+    {"wrong-type", "BadPoint", false, 0},
+    {"missing-id", "InvalidRequest", true, 0},
+    {"notification", "", false, 0},
 };
-constexpr std::size_t kBadKindCount = std::size(kBadKinds);
+/// The HTTP API's kinds: no envelope, so no missing-id or notification; a mesh in the body
+/// instead.
+constexpr BadKind kHttpBadKinds[] = {
+    {"malformed-json", "ParseError", false, 400},
+    {"unknown-method", "NotFound", false, 404},
+    {"unknown-mesh", "UnknownMesh", false, 404},
+    {"face-out-of-range", "FaceOutOfRange", false, 400},
+    {"bary-off-simplex", "BadBarycentric", false, 400},
+    {"nan-coordinate", "ParseError", false, 400},
+    {"wrong-type", "BadPoint", false, 400},
+    {"mesh-in-body", "InvalidParams", false, 400},
+};
 
 /// What one connection (and, summed, the whole run) observed.
 struct Stats {
@@ -284,10 +347,13 @@ struct Stats {
   std::uint64_t lost = 0;           ///< sent, no reply by the end of the drain
   std::uint64_t unexpected_replies = 0;  ///< unknown or repeated id, extra null id, unreadable line
   std::uint64_t dropped = 0;        ///< connections closed or reset by the server mid-run
+  std::uint64_t reconnects = 0;     ///< HTTP: after Connection: close, or an idle connection closed
+  std::uint64_t resent = 0;         ///< HTTP: requests resent after a reconnection
   std::uint64_t late = 0;
   std::uint64_t measured = 0;       ///< replies to requests sent in the measurement window
   std::uint64_t measured_bytes = 0;
   std::map<std::string, std::uint64_t> sent_by_kind;
+  std::map<std::string, std::uint64_t> statuses;  ///< HTTP: status code -> responses
   std::map<std::string, std::uint64_t> expected_errors;    ///< reason -> bad requests that got it
   std::map<std::string, std::uint64_t> unexpected_errors;  ///< reason -> good requests that got it
   std::map<std::string, std::uint64_t> allowed_errors;     ///< same, for --allow-errors reasons
@@ -304,6 +370,8 @@ struct Stats {
     lost += s.lost;
     unexpected_replies += s.unexpected_replies;
     dropped += s.dropped;
+    reconnects += s.reconnects;
+    resent += s.resent;
     late += s.late;
     measured += s.measured;
     measured_bytes += s.measured_bytes;
@@ -311,6 +379,7 @@ struct Stats {
       for (const auto& [k, v] : from) into[k] += v;
     };
     add(sent_by_kind, s.sent_by_kind);
+    add(statuses, s.statuses);
     add(expected_errors, s.expected_errors);
     add(unexpected_errors, s.unexpected_errors);
     add(allowed_errors, s.allowed_errors);
@@ -342,6 +411,31 @@ struct Pending {
   int kind;
 };
 
+/// HTTP: a request sent and not yet answered, with its text, to resend after a reconnection.
+struct HttpPending {
+  Pending pending;
+  std::string text;
+};
+
+/// The error of a non-2xx HTTP response: its body's error object (error.data.reason), or the
+/// reason "HTTP <status>" when the body has none.
+geoprox::protocol::ReplyError http_reply_error(unsigned status, const std::string& body) {
+  geoprox::protocol::ReplyError error;
+  error.code = static_cast<int>(status);
+  try {
+    const json parsed = json::parse(body);
+    const json& e = parsed.at("error");
+    error.code = e.value("code", error.code);
+    error.message = e.value("message", "");
+    error.reason = e.at("data").at("reason").get<std::string>();
+    return error;
+  } catch (const std::exception&) {
+    error.reason = "HTTP " + std::to_string(status);
+    error.message = body.substr(0, 200);
+    return error;
+  }
+}
+
 class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
  public:
   LoadConnection(asio::io_context& io, const Options& o, MeshShape shape, unsigned seed,
@@ -349,23 +443,31 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
                  Clock::time_point stop_at, std::function<void()> on_finished)
       : o_(o), shape_(shape), mesh_json_(json(o.mesh).dump()), socket_(io), timer_(io),
         points_(shape, o.points, seed), arrival_rng_(seed ^ 0x9e3779b97f4a7c15ULL),
-        measure_from_(measure_from), stop_at_(stop_at), bad_count_(bad_offset),
-        on_finished_(std::move(on_finished)) {
+        measure_from_(measure_from), stop_at_(stop_at),
+        bad_kinds_(o.http ? std::span<const BadKind>(kHttpBadKinds)
+                          : std::span<const BadKind>(kBadKinds)),
+        bad_count_(bad_offset), on_finished_(std::move(on_finished)) {
     for (const auto& [name, weight] : o.mix) {
       labels_.push_back(name);
       weights_.push_back(weight);
     }
     good_kinds_ = labels_.size();
-    for (const BadKind& b : kBadKinds) labels_.push_back(std::string("bad:") + b.name);
+    for (const BadKind& b : bad_kinds_) labels_.push_back(std::string("bad:") + b.name);
+    host_header_ = o.host + ":" + std::to_string(o.port);
     pick_ = std::discrete_distribution<std::size_t>(weights_.begin(), weights_.end());
   }
 
   /// `phase` in [0, 1): where in the per-connection interval this connection's first even slot
   /// falls, so that N connections at rate R send one request every 1/R s, not N at once.
   void start(const tcp::endpoint& endpoint, double phase) {
+    endpoint_ = endpoint;
     socket_.connect(endpoint);
     socket_.set_option(tcp::no_delay(true));
-    read();
+    if (o_.http) {
+      http_read();
+    } else {
+      read();
+    }
     if (o_.rate > 0) {
       interval_ = std::chrono::duration<double>(o_.connections / o_.rate);
       next_slot_ = Clock::now();
@@ -385,7 +487,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
 
   /// Final counts: requests still pending are lost.
   Stats& stats() {
-    stats_.lost = pending_.size() + null_pending_.size();
+    stats_.lost = pending_.size() + null_pending_.size() + http_pending_.size();
     return stats_;
   }
 
@@ -449,6 +551,16 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       // the generator a tenth of what the daemon spends answering it).
       Outgoing out;
       out.kind = static_cast<int>(picked);
+      if (o_.http) {
+        ++next_id_;
+        std::string body = R"({"source":)";
+        points_.append_wire(body);
+        body += R"(,"target":)";
+        points_.append_wire(body);
+        body += '}';
+        out.line = http_request(o_.mesh, method, body);
+        return out;
+      }
       out.line = R"({"jsonrpc":"2.0","id":)";
       out.line += std::to_string(next_id_++);
       out.line += method == "distance" ? R"(,"method":"geodesic.distance","params":{"mesh":)"
@@ -465,6 +577,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     json params = good_params(method, wire_method);
     const std::uint64_t id = next_id_++;
     Outgoing out;
+    if (o_.http) return make_http_request(picked, bad_one, wire_method, std::move(params), id);
     if (!bad_one) {
       out.kind = static_cast<int>(picked);
       out.line = json({{"jsonrpc", "2.0"}, {"id", id}, {"method", wire_method}, {"params", params}})
@@ -472,8 +585,8 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       out.line += '\n';
       return out;
     }
-    const std::size_t k = bad_count_++ % kBadKindCount;
-    const BadKind& bad = kBadKinds[k];
+    const std::size_t k = bad_count_++ % bad_kinds_.size();
+    const BadKind& bad = bad_kinds_[k];
     const std::string name = bad.name;
     out.kind = static_cast<int>(good_kinds_ + k);
     out.null_id = bad.null_id;
@@ -518,6 +631,64 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     return out;
   }
 
+  /// A POST of `body` to /v1/meshes/{mesh}/{resource}.
+  std::string http_request(const std::string& mesh, std::string_view resource,
+                           const std::string& body) const {
+    std::string text = "POST /v1/meshes/";
+    text += mesh;
+    text += '/';
+    text += resource;
+    text += " HTTP/1.1\r\nHost: ";
+    text += host_header_;
+    text += "\r\nContent-Type: application/json\r\nContent-Length: ";
+    text += std::to_string(body.size());
+    text += "\r\n\r\n";
+    text += body;
+    return text;
+  }
+
+  /// make_request() over HTTP, for everything but a good distance or path: `params` is the
+  /// method's params object (with "mesh", dropped here), `wire_method` the TCP method name.
+  Outgoing make_http_request(std::size_t picked, bool bad_one, const std::string& wire_method,
+                             json params, std::uint64_t id) {
+    params.erase("mesh");
+    std::string resource = wire_method.substr(wire_method.find('.') + 1);  // geodesic.X -> X
+    Outgoing out;
+    if (!bad_one) {
+      out.kind = static_cast<int>(picked);
+      out.line = http_request(o_.mesh, resource, params.dump());
+      return out;
+    }
+    const std::size_t k = bad_count_++ % bad_kinds_.size();
+    const std::string name = bad_kinds_[k].name;
+    out.kind = static_cast<int>(good_kinds_ + k);
+    std::string mesh = o_.mesh, body;
+    if (name == "malformed-json") {
+      body = params.dump();
+      body.resize(body.size() * 2 / 3);
+    } else if (name == "unknown-method") {
+      resource += 's';  // distances, paths, ...: no such resource
+    } else if (name == "unknown-mesh") {
+      mesh = "no-such-mesh";
+    } else if (name == "face-out-of-range") {
+      set_first_point(params, {{"face", shape_.faces + id % 1000}, {"bary", {0.2, 0.3, 0.5}}});
+    } else if (name == "bary-off-simplex") {
+      set_first_point(params, {{"face", 0}, {"bary", {0.2, 0.3, 0.6}}});
+    } else if (name == "nan-coordinate") {
+      set_first_point(params, "@NAN@");
+      body = params.dump();
+      const std::string marker = "\"@NAN@\"";
+      body.replace(body.find(marker), marker.size(), R"({"position":[NaN,0,0]})");
+    } else if (name == "wrong-type") {
+      set_first_point(params, {{"face", "7"}, {"bary", {0.2, 0.3, 0.5}}});
+    } else {  // mesh-in-body
+      params["mesh"] = o_.mesh;
+    }
+    if (body.empty()) body = params.dump();
+    out.line = http_request(mesh, resource, body);
+    return out;
+  }
+
   void send_one() {
     // A notification frees no slot (it is never answered): send until one request is in flight.
     while (Clock::now() < stop_at_) {
@@ -527,7 +698,9 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
       if (r.expects_reply) {
         ++stats_.sent;
         ++in_flight_;
-        if (r.null_id) {
+        if (o_.http) {
+          http_pending_.push_back({Pending{now, r.kind}, r.line});
+        } else if (r.null_id) {
           null_pending_.push_back({now, r.kind});
         } else {
           pending_.emplace(next_id_ - 1, Pending{now, r.kind});
@@ -542,9 +715,12 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
   }
 
   /// Starts writing what send_one() queued, unless a write is under way (its completion sends
-  /// the rest) or on_replies() is still gathering requests for one write.
+  /// the rest), on_replies() is still gathering requests for one write or the connection is
+  /// being made again (its completion writes every request pending).
   void flush() {
-    if (!writing_ && !handling_replies_ && !out_.empty()) write();
+    if (!writing_ && !handling_replies_ && !connecting_ && !write_failed_ && !out_.empty()) {
+      write();
+    }
   }
 
   void tick() {
@@ -583,9 +759,17 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     out_.clear();
     buffers_.clear();
     for (const auto& s : writing_now_) buffers_.emplace_back(s.data(), s.size());
-    asio::async_write(socket_, buffers_, [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
+    asio::async_write(socket_, buffers_, [self = shared_from_this(), generation = generation_](
+                                             boost::system::error_code ec, std::size_t) {
+      if (generation != self->generation_) return;  // the socket was closed to reconnect
       self->writing_ = false;
       self->writing_now_.clear();
+      if (ec && self->o_.http) {
+        // The server may have closed after a response with Connection: close, still unread:
+        // the read side tells (a reconnection, or the connection dropped).
+        self->write_failed_ = true;
+        return;
+      }
       if (ec) {
         self->connection_lost("write: " + ec.message());
         return;
@@ -641,8 +825,9 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
     on_finished_();
   }
 
+  /// `status`: the HTTP status of the response; 0 over TCP.
   void check_reply(const Pending& p, const geoprox::protocol::Reply& reply, Clock::time_point now,
-                   std::size_t bytes) {
+                   std::size_t bytes, unsigned status = 0) {
     ++stats_.answered;
     const std::string& label = labels_[static_cast<std::size_t>(p.kind)];
     if (static_cast<std::size_t>(p.kind) < good_kinds_) {
@@ -655,12 +840,17 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
         stats_.note(label + " failed: " + reply.error->reason + ": " + reply.error->message);
       }
     } else {
-      const BadKind& bad = kBadKinds[static_cast<std::size_t>(p.kind) - good_kinds_];
+      const BadKind& bad = bad_kinds_[static_cast<std::size_t>(p.kind) - good_kinds_];
       const std::string got = reply.error ? reply.error->reason : "a result";
-      if (got == bad.reason) {
+      if (got == bad.reason && status == bad.status) {
         ++stats_.expected_errors[got];
       } else {
-        ++stats_.wrong_replies[std::string(bad.name) + ": expected " + bad.reason + ", got " + got];
+        const auto with_status = [](unsigned code, const std::string& text) {
+          return code == 0 ? text : std::to_string(code) + " " + text;
+        };
+        ++stats_.wrong_replies[std::string(bad.name) + ": expected " +
+                               with_status(bad.status, bad.reason) + ", got " +
+                               with_status(status, got)];
         stats_.note(label + " got " + got + (reply.error ? ": " + reply.error->message : ""));
       }
     }
@@ -731,6 +921,17 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
         stats_.note(std::string("unreadable reply (") + e.what() + ")");
       }
     }
+    if (!matched) {
+      ++stats_.unexpected_replies;
+      stats_.note("unexpected reply: " + line.substr(0, 300));
+    }
+    return after_reply(matched, now);
+  }
+
+  /// After a reply (matched to a request, or not): the slot it freed is used (closed loop, or a
+  /// late slot owed), and the connection finishes once nothing is in flight after the run; false
+  /// then.
+  bool after_reply(bool matched, Clock::time_point now) {
     if (matched) {
       --in_flight_;
       if (o_.rate <= 0) {
@@ -739,19 +940,110 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
         --owed_;
         send_one();
       }
-    } else {
-      ++stats_.unexpected_replies;
-      stats_.note("unexpected reply: " + line.substr(0, 300));
     }
     if (in_flight_ > 0 || now < stop_at_) return true;
     finish();
     return false;
   }
 
+  /// HTTP: reads the next response with Beast (a Content-Length or chunked body, of any size).
+  void http_read() {
+    response_.emplace();
+    // No limit; not boost::none, which Beast 1.74 compares wrongly with a Content-Length.
+    response_->body_limit(std::numeric_limits<std::uint64_t>::max());
+    http::async_read(socket_, http_buffer_, *response_,
+                     [self = shared_from_this(), generation = generation_](
+                         boost::system::error_code ec, std::size_t n) {
+                       if (generation != self->generation_) return;  // closed to reconnect
+                       if (ec) {
+                         self->http_read_failed(ec);
+                       } else {
+                         self->on_http_response(n);
+                       }
+                     });
+  }
+
+  void http_read_failed(boost::system::error_code ec) {
+    if (finished_) return;
+    // A keep-alive connection the server closed while idle, with no request pending (as HTTP
+    // servers may): made again. With requests pending, the server dropped them.
+    if (http_pending_.empty() && Clock::now() < stop_at_ &&
+        (ec == http::error::end_of_stream || ec == asio::error::eof ||
+         ec == asio::error::connection_reset)) {
+      connecting_ = true;
+      reconnect(0);
+      return;
+    }
+    connection_lost("read: " + ec.message());
+  }
+
+  /// HTTP: one response of n bytes (head and body), for the oldest request pending.
+  void on_http_response(std::size_t n) {
+    const auto& response = response_->get();
+    const auto now = Clock::now();
+    const unsigned status = response.result_int();
+    ++stats_.statuses[std::to_string(status)];
+    bool matched = false;
+    if (!http_pending_.empty()) {
+      const Pending p = http_pending_.front().pending;
+      http_pending_.pop_front();
+      geoprox::protocol::Reply reply;
+      if (status / 100 != 2) reply.error = http_reply_error(status, response.body());
+      check_reply(p, reply, now, n, status);
+      matched = true;
+    } else {
+      ++stats_.unexpected_replies;
+      stats_.note("unexpected response (no request pending): " + std::to_string(status) + " " +
+                  response.body().substr(0, 300));
+    }
+    // Connection: close: the requests the reply frees wait for the new connection.
+    const bool keep_alive = response.keep_alive();
+    const std::size_t unanswered = http_pending_.size();
+    if (!keep_alive) connecting_ = true;
+    after_reply(matched, now);
+    if (finished_) return;
+    if (keep_alive) {
+      http_read();
+    } else {
+      reconnect(unanswered);
+    }
+  }
+
+  /// HTTP: closes the connection and makes it again, then writes every request still pending
+  /// (`resent` of them were sent on the old one). connecting_ is set already (flush() waits).
+  void reconnect(std::size_t resent) {
+    ++stats_.reconnects;
+    stats_.resent += resent;
+    ++generation_;
+    boost::system::error_code ignored;
+    socket_.close(ignored);
+    writing_ = false;
+    write_failed_ = false;
+    writing_now_.clear();
+    out_.clear();
+    http_buffer_.clear();
+    socket_.async_connect(endpoint_, [self = shared_from_this(), generation = generation_](
+                                         boost::system::error_code ec) {
+      if (generation != self->generation_ || self->finished_) return;
+      self->connecting_ = false;
+      if (ec) {
+        self->connection_lost("reconnect: " + ec.message());
+        return;
+      }
+      boost::system::error_code no_delay_error;
+      self->socket_.set_option(tcp::no_delay(true), no_delay_error);
+      self->out_.clear();
+      for (const HttpPending& p : self->http_pending_) self->out_.push_back(p.text);
+      self->http_read();
+      self->flush();
+    });
+  }
+
   const Options& o_;
   MeshShape shape_;
   std::string mesh_json_;  ///< the mesh id as a JSON string
   tcp::socket socket_;
+  tcp::endpoint endpoint_;
   asio::steady_timer timer_;
   PointSource points_;
   std::mt19937_64 arrival_rng_;  ///< its own stream: the same points whatever the arrivals
@@ -760,6 +1052,7 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
   std::vector<double> weights_;
   std::discrete_distribution<std::size_t> pick_;
   Clock::time_point measure_from_, stop_at_;
+  std::span<const BadKind> bad_kinds_;  ///< kBadKinds, or kHttpBadKinds with --http
   std::chrono::duration<double> interval_{0};
   Clock::time_point next_slot_;
   asio::streambuf buffer_;
@@ -768,6 +1061,9 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
   bool writing_ = false;
   bool handling_replies_ = false;  ///< inside on_replies: send_one() leaves the write to it
   bool finished_ = false;
+  bool connecting_ = false;  ///< HTTP: reconnecting, flush() waits for the new connection
+  bool write_failed_ = false;  ///< HTTP: no more writes on this connection
+  std::uint64_t generation_ = 0;  ///< HTTP: +1 per reconnection; older completions are ignored
   int in_flight_ = 0;
   std::uint64_t owed_ = 0;
   std::uint64_t next_id_ = 1;
@@ -775,6 +1071,10 @@ class LoadConnection : public std::enable_shared_from_this<LoadConnection> {
   std::size_t bad_count_;
   std::unordered_map<std::uint64_t, Pending> pending_;
   std::deque<Pending> null_pending_;
+  std::deque<HttpPending> http_pending_;  ///< HTTP: in the order sent, as answered
+  std::string host_header_;
+  boost::beast::flat_buffer http_buffer_;
+  std::optional<http::response_parser<http::string_body>> response_;
   std::function<void()> on_finished_;
   Stats stats_;
 };
@@ -835,6 +1135,24 @@ MeshShape query_shape(const Options& o) {
   asio::io_context io;
   tcp::socket s(io);
   s.connect(tcp::endpoint(asio::ip::make_address(o.host), o.port));
+  if (o.http) {
+    http::request<http::empty_body> request{http::verb::get, "/v1/meshes/" + o.mesh, 11};
+    request.set(http::field::host, o.host + ":" + std::to_string(o.port));
+    http::write(s, request);
+    boost::beast::flat_buffer buffer;
+    http::response<http::string_body> response;
+    http::read(s, buffer, response);
+    json info;
+    try {
+      info = json::parse(response.body());
+    } catch (const std::exception&) {
+    }
+    if (response.result_int() != 200 || !info.is_object() || info.value("state", "") != "ready") {
+      usage("GET /v1/meshes/" + o.mesh + " (wanted 200 and state ready): " +
+            std::to_string(response.result_int()) + " " + response.body().substr(0, 300));
+    }
+    return {info.at("vertices").get<std::uint64_t>(), info.at("faces").get<std::uint64_t>()};
+  }
   const std::string request =
       json({{"jsonrpc", "2.0"}, {"id", 0}, {"method", "mesh.info"}, {"params", {{"mesh", o.mesh}}}})
           .dump() +
@@ -935,7 +1253,7 @@ int run_network(const Options& o) {
                             (o.poisson ? "poisson" : "even")).c_str()
                          : "closed loop");
   for (const auto& [k, v] : o.mix) std::printf(" %s=%g", k.c_str(), v);
-  std::printf(", bad %g, points %s\n", o.bad, o.points.c_str());
+  std::printf(", bad %g, points %s%s\n", o.bad, o.points.c_str(), o.http ? ", http" : "");
   std::printf("requests     %llu sent (+%llu notifications), %llu answered (%llu good ok), "
               "%llu lost, %llu unexpected replies, %llu connections dropped\n",
               static_cast<unsigned long long>(all.sent),
@@ -960,6 +1278,15 @@ int run_network(const Options& o) {
     std::printf("  %-24s n %-8llu p50 %.3f  p99 %.3f  p999 %.3f  max %.3f\n", kind.c_str(),
                 static_cast<unsigned long long>(v.size()), s["p50"].get<double>(),
                 s["p99"].get<double>(), s["p999"].get<double>(), s["max"].get<double>());
+  }
+  if (o.http) {
+    std::printf("http         statuses");
+    for (const auto& [status, n] : all.statuses) {
+      std::printf(" %s: %llu", status.c_str(), static_cast<unsigned long long>(n));
+    }
+    std::printf("; %llu reconnects (Connection: close, or closed idle), %llu requests resent\n",
+                static_cast<unsigned long long>(all.reconnects),
+                static_cast<unsigned long long>(all.resent));
   }
   if (o.rate > 0) std::printf("late slots   %llu (depth was full when the rate wanted a request)\n", static_cast<unsigned long long>(all.late));
   for (const auto& [reason, n] : all.expected_errors) {
@@ -1003,6 +1330,7 @@ int run_network(const Options& o) {
     json mix = json::object();
     for (const auto& [k, v] : o.mix) mix[k] = v;
     const json summary = {
+        {"transport", o.http ? "http" : "tcp"},
         {"mesh", o.mesh},
         {"vertices", shape.vertices},
         {"faces", shape.faces},
@@ -1024,6 +1352,9 @@ int run_network(const Options& o) {
         {"lost", all.lost},
         {"unexpected_replies", all.unexpected_replies},
         {"connections_dropped", all.dropped},
+        {"http_statuses", all.statuses},
+        {"reconnects", all.reconnects},
+        {"resent", all.resent},
         {"late", all.late},
         {"measured", all.measured},
         {"throughput_rps", static_cast<double>(all.measured) / seconds},

@@ -292,6 +292,12 @@ std::variant<Envelope, EnvelopeError> parse_envelope(std::string_view line,
   return envelope;
 }
 
+json parse_json_text(std::string_view text, std::size_t max_nesting_depth) {
+  ParsedDocument document = parse_document(text, max_nesting_depth);
+  if (document.error) throw *document.error;
+  return std::move(document.root);
+}
+
 json error_to_json(const ProtocolError& error) {
   json data = {{"reason", error.reason_name()}, {"retryable", error.retryable()}};
   if (error.retry_after_ms()) data["retry_after_ms"] = *error.retry_after_ms();

@@ -73,6 +73,12 @@ struct EnvelopeError {
 std::variant<Envelope, EnvelopeError> parse_envelope(
     std::string_view line, std::size_t max_nesting_depth = kDefaultMaxNestingDepth);
 
+/// Any JSON document (an HTTP request body), read with the same checks as a request line: throws
+/// ProtocolError ParseError for bad JSON or UTF-8, InvalidRequest for a duplicate key, TooLarge
+/// beyond `max_nesting_depth`.
+nlohmann::json parse_json_text(std::string_view text,
+                               std::size_t max_nesting_depth = kDefaultMaxNestingDepth);
+
 /// `{"code": ..., "message": ..., "data": {"reason": ..., "retryable": ...[, "retry_after_ms"]}}`.
 nlohmann::json error_to_json(const ProtocolError& error);
 

@@ -113,38 +113,46 @@ void to_json(json& out, const FieldResult& result) {
   }
 }
 
-std::string serialize_field_result(const RequestId& id, const FieldResult& result) {
-  if (result.encoding != FieldEncoding::F32leBase64) return serialize_result(id, json(result));
+std::string field_result_object(const FieldResult& result) {
+  if (result.encoding != FieldEncoding::F32leBase64) return dump_one_line(json(result));
   const std::size_t reached = count_reached(result);
   const std::string distances = encode_f32le_base64(std::span<const double>(result.distances));
   const std::string nearest =
       result.nearest_source.empty() ? std::string() : encode_u32le_base64(result.nearest_source);
   // The members of to_json(FieldResult), in the alphabetical order nlohmann writes them.
-  std::string line;
-  line.reserve(distances.size() + nearest.size() + result.mesh.size() + result.mesh_version.size() +
+  std::string text;
+  text.reserve(distances.size() + nearest.size() + result.mesh.size() + result.mesh_version.size() +
                256);
-  line += R"({"jsonrpc":"2.0","id":)";
-  line += id.json_text();
-  line += R"(,"result":{"cutoff":)";
-  line += dump_one_line(optional_json(result.cutoff));
-  line += R"(,"distances":")";
-  line += distances;
-  line += R"(","encoding":")";
-  line += encoding_name(result.encoding);
-  line += R"(","mesh":)";
-  line += dump_one_line(json(result.mesh));
-  line += R"(,"mesh_version":)";
-  line += dump_one_line(json(result.mesh_version));
+  text += R"({"cutoff":)";
+  text += dump_one_line(optional_json(result.cutoff));
+  text += R"(,"distances":")";
+  text += distances;
+  text += R"(","encoding":")";
+  text += encoding_name(result.encoding);
+  text += R"(","mesh":)";
+  text += dump_one_line(json(result.mesh));
+  text += R"(,"mesh_version":)";
+  text += dump_one_line(json(result.mesh_version));
   if (!nearest.empty()) {
-    line += R"(,"nearest_source":")";
-    line += nearest;
-    line += '"';
+    text += R"(,"nearest_source":")";
+    text += nearest;
+    text += '"';
   }
-  line += R"(,"reached":)";
-  line += std::to_string(reached);
-  line += R"(,"vertices":)";
-  line += std::to_string(result.distances.size());
-  line += "}}\n";
+  text += R"(,"reached":)";
+  text += std::to_string(reached);
+  text += R"(,"vertices":)";
+  text += std::to_string(result.distances.size());
+  text += "}";
+  return text;
+}
+
+std::string serialize_field_result(const RequestId& id, const FieldResult& result) {
+  if (result.encoding != FieldEncoding::F32leBase64) return serialize_result(id, json(result));
+  std::string line = R"({"jsonrpc":"2.0","id":)";
+  line += id.json_text();
+  line += R"(,"result":)";
+  line += field_result_object(result);
+  line += "}\n";
   return line;
 }
 

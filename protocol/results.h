@@ -232,9 +232,11 @@ void to_json(nlohmann::json& out, const BatchResult& result);
 void to_json(nlohmann::json& out, const ExpmapResult& result);
 void to_json(nlohmann::json& out, const SplineResult& result);
 
-/// The reply line of a field result: byte for byte serialize_result(id, json(result)), but with
-/// "f32le-base64" the base64 strings go straight into the line instead of through a JSON
+/// The field result object as compact JSON text: byte for byte dump_one_line(json(result)), but
+/// with "f32le-base64" the base64 strings go straight into the text instead of through a JSON
 /// document (no copy, no escaping pass; base64 needs none). Fields are the large replies.
+std::string field_result_object(const FieldResult& result);
+/// The reply line of a field result (its `result` is field_result_object(result)).
 std::string serialize_field_result(const RequestId& id, const FieldResult& result);
 
 }  // namespace geoprox::protocol

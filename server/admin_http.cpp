@@ -1,27 +1,26 @@
 #include "server/admin_http.h"
 
+#include "server/http_handler.h"
+
 #include <chrono>
-#include <istream>
 
 namespace geoprox::server {
 
 namespace asio = boost::asio;
+namespace http = boost::beast::http;
 using asio::ip::tcp;
 
 namespace {
 
-/// A request whose headers do not end within this many bytes is refused (431).
-constexpr std::size_t kMaxRequestBytes = 16 * 1024;
+/// Request line and header fields beyond this many bytes are refused (431).
+constexpr std::uint32_t kMaxRequestBytes = 16 * 1024;
 /// The whole exchange must end within this time; the socket is closed after it.
 constexpr auto kSessionTimeout = std::chrono::seconds(5);
 
 }  // namespace
 
 AdminSession::AdminSession(const Service& service, tcp::socket socket)
-    : service_(service),
-      socket_(std::move(socket)),
-      timer_(socket_.get_executor()),
-      buffer_(kMaxRequestBytes) {}
+    : service_(service), socket_(std::move(socket)), timer_(socket_.get_executor()) {}
 
 void AdminSession::start() {
   timer_.expires_after(kSessionTimeout);
@@ -31,64 +30,78 @@ void AdminSession::start() {
       self->socket_.close(ignored);
     }
   });
-  asio::async_read_until(socket_, buffer_, "\r\n\r\n",
-                         [self = shared_from_this()](boost::system::error_code ec,
-                                                     std::size_t) { self->on_request(ec); });
+  parser_.emplace();
+  parser_->header_limit(kMaxRequestBytes);
+  http::async_read(socket_, buffer_, *parser_,
+                   [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
+                     self->on_request(ec);
+                   });
 }
 
 void AdminSession::on_request(boost::system::error_code ec) {
+  if (ec == http::error::header_limit) {
+    respond(http::status::request_header_fields_too_large, "text/plain", "request too large\n",
+            true);
+    return;
+  }
+  if (ec == http::error::unexpected_body) {
+    respond(http::status::payload_too_large, "text/plain", "no body expected\n", true);
+    return;
+  }
   if (ec) {
-    if (ec == asio::error::not_found) {
-      respond(431, "Request Header Fields Too Large", "text/plain", "request too large\n", true);
+    if (ec.category() == http::make_error_code(http::error::bad_method).category()) {
+      respond(http::status::bad_request, "text/plain", "malformed HTTP request\n", true);
     } else {
       close();
     }
     return;
   }
-  std::istream in(&buffer_);
-  std::string method, target, version;
-  in >> method >> target >> version;
-  const bool head = method == "HEAD";
-  if (method != "GET" && !head) {
-    respond(405, "Method Not Allowed", "text/plain", "only GET and HEAD\n", !head);
+  const auto& request = parser_->get();
+  const bool head = request.method() == http::verb::head;
+  if (request.method() != http::verb::get && !head) {
+    respond(http::status::method_not_allowed, "text/plain", "only GET and HEAD\n", true);
     return;
   }
-  const auto query = target.find('?');
-  if (query != std::string::npos) target.resize(query);
-  route(target, !head);
+  const std::string_view target = as_std(request.target());
+  route(target.substr(0, target.find('?')), !head);
 }
 
-void AdminSession::route(const std::string& target, bool with_body) {
-  if (target == "/metrics") {
-    respond(200, "OK", "text/plain; version=0.0.4; charset=utf-8", service_.metrics_text(),
+void AdminSession::route(std::string_view path, bool with_body) {
+  if (path == "/metrics") {
+    respond(http::status::ok, "text/plain; version=0.0.4; charset=utf-8", service_.metrics_text(),
             with_body);
-  } else if (target == "/healthz") {
-    respond(200, "OK", "text/plain", "ok\n", with_body);
-  } else if (target == "/readyz") {
+  } else if (path == "/healthz") {
+    respond(http::status::ok, "text/plain", "ok\n", with_body);
+  } else if (path == "/readyz") {
     const protocol::HealthResult health = service_.health();
     if (health.status == protocol::HealthStatus::Ok) {
-      respond(200, "OK", "text/plain", "ready\n", with_body);
+      respond(http::status::ok, "text/plain", "ready\n", with_body);
     } else {
-      std::string body = "not ready: ";
-      body += protocol::health_status_name(health.status);
-      body += "\n";
-      respond(503, "Service Unavailable", "text/plain", body, with_body);
+      respond(http::status::service_unavailable, "text/plain",
+              "not ready: " + std::string(protocol::health_status_name(health.status)) + "\n",
+              with_body);
     }
   } else {
-    respond(404, "Not Found", "text/plain", "unknown path (try /metrics, /healthz, /readyz)\n",
-            with_body);
+    respond(http::status::not_found, "text/plain",
+            "unknown path (try /metrics, /healthz, /readyz)\n", with_body);
   }
 }
 
-void AdminSession::respond(int code, const char* reason, const char* type,
-                           const std::string& body, bool with_body) {
-  response_ = "HTTP/1.1 " + std::to_string(code) + " " + reason;
-  response_ += "\r\nContent-Type: ";
-  response_ += type;
-  response_ += "\r\nContent-Length: " + std::to_string(body.size());
-  response_ += "\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n";
-  if (with_body) response_ += body;
-  asio::async_write(socket_, asio::buffer(response_),
+void AdminSession::respond(http::status status, const char* type, std::string body,
+                           bool with_body) {
+  response_.result(status);
+  response_.version(11);
+  response_.set(http::field::content_type, type);
+  response_.set(http::field::cache_control, "no-store");
+  response_.keep_alive(false);
+  response_.body() = std::move(body);
+  response_.prepare_payload();
+  if (!with_body) {
+    const std::size_t length = response_.body().size();
+    response_.body().clear();
+    response_.content_length(length);
+  }
+  http::async_write(socket_, response_,
                     [self = shared_from_this()](boost::system::error_code, std::size_t) {
                       self->close();
                     });

@@ -132,7 +132,8 @@ void read_limits(const json& limits, const std::string& where, Config& config) {
   l.only({"max_line_bytes", "max_nesting_depth", "max_points_per_request", "max_matrix_pairs",
           "max_field_sources", "max_batch_requests", "max_output_bytes", "default_timeout_ms",
           "max_timeout_ms", "max_connections", "max_inflight_per_connection", "max_queue",
-          "read_timeout_ms", "max_write_buffer_bytes"});
+          "read_timeout_ms", "max_write_buffer_bytes", "http_request_timeout_ms",
+          "http_max_header_bytes"});
   protocol::Limits& p = config.limits;
   ServerLimits& s = config.server_limits;
   l.integer("max_line_bytes", p.max_line_bytes, 64, std::int64_t{1} << 32);
@@ -149,6 +150,8 @@ void read_limits(const json& limits, const std::string& where, Config& config) {
   l.integer("max_queue", s.max_queue, 0, 100'000'000);
   l.integer("read_timeout_ms", s.read_timeout_ms, 1, 86'400'000);
   l.integer("max_write_buffer_bytes", s.max_write_buffer_bytes, 1024, std::int64_t{1} << 40);
+  l.integer("http_request_timeout_ms", s.http_request_timeout_ms, 1, 86'400'000);
+  l.integer("http_max_header_bytes", s.http_max_header_bytes, 1024, 1 << 20);
 }
 
 /// One entry of "meshes"; `ids` and `graphs` are those of the entries before it (no id or
@@ -204,7 +207,8 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   if (!document.is_object()) throw ConfigError(origin + ": the top level must be an object");
   Config config;
   const Reader top(document, origin);
-  top.only({"bind", "port", "admin_bind", "admin_port", "compute_threads", "io_threads",
+  top.only({"bind", "port", "admin_bind", "admin_port", "http_bind", "http_port",
+            "http_cors_origins", "compute_threads", "io_threads",
             "io_coalesce_us", "split_near_pairs", "build_threads", "data_dir", "graph_dir",
             "log_level", "log_json", "admin_token", "query_token", "shutdown_timeout_ms",
             "not_ready_retry_after_ms", "limits", "meshes"});
@@ -213,6 +217,21 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   top.string("admin_bind", config.admin_bind);
   top.integer("port", config.port, 0, 65535);
   top.integer("admin_port", config.admin_port, 0, 65535);
+  config.http_bind = config.bind;
+  top.string("http_bind", config.http_bind);
+  top.integer("http_port", config.http_port, 0, 65535);
+  if (const json* origins = top.find("http_cors_origins")) {
+    const std::string where = top.name("http_cors_origins");
+    if (!origins->is_array()) throw ConfigError(where + ": expected an array of origins");
+    for (std::size_t i = 0; i < origins->size(); ++i) {
+      const json& entry = (*origins)[i];
+      if (!entry.is_string() || entry.get_ref<const std::string&>().empty()) {
+        throw ConfigError(where + "[" + std::to_string(i) +
+                          "]: expected an origin such as \"https://example.org\" or \"*\"");
+      }
+      config.http_cors_origins.push_back(entry.get<std::string>());
+    }
+  }
   top.integer("compute_threads", config.compute_threads, 0, 1024);
   top.integer("io_threads", config.io_threads, 1, 64);
   top.integer("io_coalesce_us", config.io_coalesce_us, 0, 10000);
@@ -267,6 +286,12 @@ void validate_config(const Config& config) {
   if (config.admin_port != 0 && config.admin_port == config.port &&
       config.admin_bind == config.bind) {
     throw ConfigError("admin_port: must differ from port (" + std::to_string(config.port) + ")");
+  }
+  if (config.http_port != 0 &&
+      ((config.http_port == config.port && config.http_bind == config.bind) ||
+       (config.http_port == config.admin_port && config.http_bind == config.admin_bind))) {
+    throw ConfigError("http_port: must differ from port and admin_port (" +
+                      std::to_string(config.http_port) + ")");
   }
 }
 

@@ -1,6 +1,6 @@
 // geoproxd configuration: one JSON file (configs/README.md and docs/daemon.md document every key
 // and its default), then the environment (GEOPROX_LOG_LEVEL, GEOPROX_ADMIN_TOKEN,
-// GEOPROX_QUERY_TOKEN), then the command line (--bind, --port, --admin-port). Unknown keys are
+// GEOPROX_QUERY_TOKEN), then the command line (--bind, --port, --admin-port, --http-port). Unknown keys are
 // refused, naming the key, so a misspelt option never silently falls back to its default.
 #pragma once
 
@@ -62,6 +62,11 @@ struct ServerLimits {
   /// Replies queued for a connection beyond this many bytes: the client is not reading, it is
   /// disconnected (a single reply is always accepted).
   std::size_t max_write_buffer_bytes = std::size_t{128} << 20;
+  /// HTTP: a request's header and body must arrive within this long of its first byte, else
+  /// 408 and the connection is closed (slow senders cannot hold a connection).
+  std::int64_t http_request_timeout_ms = 10'000;
+  /// HTTP: bytes of a request's start line and header fields (431 beyond).
+  std::size_t http_max_header_bytes = 16 * 1024;
 };
 
 struct Config {
@@ -70,6 +75,10 @@ struct Config {
   std::uint16_t port = 7878;
   std::string admin_bind = "127.0.0.1";
   std::uint16_t admin_port = 7879;  ///< 0: no admin HTTP endpoint
+  std::string http_bind = "127.0.0.1";
+  std::uint16_t http_port = 7880;  ///< 0: no HTTP API (docs/http.md)
+  /// Origins whose browser pages may call the HTTP API (CORS); "*" allows any. Empty: none.
+  std::vector<std::string> http_cors_origins;
   unsigned compute_threads = 0;     ///< 0: std::thread::hardware_concurrency()
   unsigned io_threads = 1;
   /// Under load (4 requests per compute thread waiting), an I/O thread pauses this long (us)

@@ -124,7 +124,7 @@ void Connection::process_frames() {
     if (!frame) break;
     if (frame->kind == protocol::Frame::Kind::TooLarge) {
       const ProtocolError error = protocol::line_too_large_error(framer_.max_line_bytes());
-      env_.metrics.record_request(std::nullopt, error.reason(), 0);
+      env_.metrics.record_request(Transport::Tcp, std::nullopt, error.reason(), 0);
       spdlog::debug("request from {}: line over {} bytes refused", peer_,
                     framer_.max_line_bytes());
       enqueue_write(protocol::serialize_error(protocol::RequestId(), error));
@@ -150,7 +150,7 @@ void Connection::handle_line(const std::string& line) {
       // Before server.auth, even a malformed query learns nothing but Unauthorized.
       rejection->error = unauthenticated_error(*method);
     }
-    env_.metrics.record_request(method, rejection->error.reason(), 0);
+    env_.metrics.record_request(Transport::Tcp, method, rejection->error.reason(), 0);
     log_request(rejection->id ? &*rejection->id : nullptr, rejection->method_name, "", received,
                 rejection->error.reason(), rejection->error.what());
     if (auto reply = rejection->reply_line()) enqueue_write(std::move(*reply));
@@ -294,7 +294,7 @@ void Connection::finish_request(const protocol::Call& call, protocol::Method met
                                 const std::string& mesh, Clock::time_point received,
                                 Answer answer) {
   const double seconds = std::chrono::duration<double>(Clock::now() - received).count();
-  env_.metrics.record_request(method, answer.error, seconds);
+  env_.metrics.record_request(Transport::Tcp, method, answer.error, seconds);
   log_request(call.id ? &*call.id : nullptr, call.method_name, mesh, received, answer.error,
               answer.error ? std::string_view(answer.line) : std::string_view());
   if (!answer.line.empty() && !closed_) enqueue_write(std::move(answer.line));

@@ -26,12 +26,11 @@
 #include "protocol/request.h"
 #include "server/compute_pool.h"
 #include "server/config.h"
+#include "server/connection_manager.h"
 #include "server/metrics.h"
 #include "server/service.h"
 
 namespace geoprox::server {
-
-class ConnectionManager;
 
 /// What a connection uses of its server; all of it outlives every connection.
 struct ConnectionEnv {
@@ -43,7 +42,7 @@ struct ConnectionEnv {
   ConnectionManager& manager;
 };
 
-class Connection : public std::enable_shared_from_this<Connection> {
+class Connection : public Session, public std::enable_shared_from_this<Connection> {
  public:
   using Clock = std::chrono::steady_clock;
 
@@ -52,9 +51,9 @@ class Connection : public std::enable_shared_from_this<Connection> {
   /// Starts reading (on the connection's strand).
   void start();
   /// Shutdown: close once the replies queued so far are written.
-  void drain_close();
+  void drain_close() override;
   /// Shutdown deadline: cancel what is in flight and close now.
-  void force_close();
+  void force_close() override;
 
  private:
   struct Active {

@@ -45,7 +45,8 @@ constexpr int kExitUsage = 2;
 
 constexpr const char* kDescription =
     "geoproxd: the geoprox query daemon (docs/daemon.md is the manual).\n"
-    "  geoproxd --config FILE [--bind ADDR] [--port N] [--admin-port N] [--port-file FILE]\n"
+    "  geoproxd --config FILE [--bind ADDR] [--port N] [--admin-port N] [--http-port N]\n"
+    "           [--port-file FILE]\n"
     "  geoproxd --config FILE --check\n"
     "  geoproxd --probe [--bind ADDR] [--admin-port N]\n";
 
@@ -61,6 +62,7 @@ struct Args {
   std::string bind;
   std::string port;
   std::string admin_port;
+  std::string http_port;
   std::string port_file;
   bool check = false;
   bool probe = false;
@@ -71,6 +73,7 @@ struct Overrides {
   std::optional<std::string> bind;
   std::optional<int> port;
   std::optional<int> admin_port;
+  std::optional<int> http_port;
 };
 
 /// Declares the flags. A flag given twice takes its last value.
@@ -87,8 +90,12 @@ void add_options(CLI::App& app, Args& args) {
   app.add_option("--admin-port", args.admin_port,
                  "admin HTTP port (/metrics, /healthz, /readyz), 0 = off")
       ->type_name("N");
+  app.add_option("--http-port", args.http_port,
+                 "HTTP API port (docs/http.md), 0 = off (overrides \"http_port\")")
+      ->type_name("N");
   app.add_option("--port-file", args.port_file,
-                 "once listening, write {\"port\": N, \"admin_port\": M} to FILE")
+                 "once listening, write {\"port\": N, \"admin_port\": M, \"http_port\": H}\n"
+                 "to FILE")
       ->type_name("FILE");
   app.add_flag("--check", args.check,
                "validate the config, the meshes and the graph files, then exit\n"
@@ -140,6 +147,7 @@ Overrides overrides_of(const CLI::App& app, const Args& args) {
   if (app.count("--bind")) out.bind = args.bind;
   if (app.count("--port")) out.port = parse_port("--port", args.port);
   if (app.count("--admin-port")) out.admin_port = parse_port("--admin-port", args.admin_port);
+  if (app.count("--http-port")) out.http_port = parse_port("--http-port", args.http_port);
   return out;
 }
 
@@ -278,6 +286,7 @@ int run(int argc, char** argv) {
   if (overrides.bind) config.bind = *overrides.bind;
   if (overrides.port) config.port = static_cast<std::uint16_t>(*overrides.port);
   if (overrides.admin_port) config.admin_port = static_cast<std::uint16_t>(*overrides.admin_port);
+  if (overrides.http_port) config.http_port = static_cast<std::uint16_t>(*overrides.http_port);
   apply_environment(config);
   if (args.check) return run_check(config);
   return serve(config, args.port_file);

@@ -6,15 +6,20 @@
 
 namespace geoprox::server {
 
+std::string_view transport_name(Transport transport) {
+  return transport == Transport::Http ? "http" : "tcp";
+}
+
 Metrics::Metrics()
     : method_slots_(protocol::all_methods().size() + 1),
       outcome_slots_(protocol::error_reasons().size() + 1),
-      requests_(method_slots_ * outcome_slots_),
-      latency_(method_slots_) {}
+      requests_(kTransportCount * method_slots_ * outcome_slots_),
+      latency_(kTransportCount * method_slots_) {}
 
-void Metrics::record_request(std::optional<protocol::Method> method,
+void Metrics::record_request(Transport transport, std::optional<protocol::Method> method,
                              std::optional<protocol::ErrorReason> error, double seconds) {
-  const std::size_t m = method ? static_cast<std::size_t>(*method) : method_slots_ - 1;
+  const std::size_t m = static_cast<std::size_t>(transport) * method_slots_ +
+                        (method ? static_cast<std::size_t>(*method) : method_slots_ - 1);
   const std::size_t o = error ? static_cast<std::size_t>(*error) + 1 : 0;
   requests_[m * outcome_slots_ + o].fetch_add(1, std::memory_order_relaxed);
   Histogram& h = latency_[m];
@@ -51,10 +56,16 @@ std::string prometheus_label(std::string_view value) {
 
 namespace {
 
-std::string method_label(std::size_t slot) {
+/// `transport="tcp",method="geodesic.distance"` for a slot of latency_ (transport x method).
+std::string slot_labels(std::size_t slot, std::size_t method_slots) {
   const auto methods = protocol::all_methods();
-  if (slot < methods.size()) return std::string(protocol::method_name(methods[slot]));
-  return "invalid";
+  const std::size_t m = slot % method_slots;
+  std::string out = "transport=\"";
+  out += transport_name(static_cast<Transport>(slot / method_slots));
+  out += "\",method=\"";
+  out += m < methods.size() ? protocol::method_name(methods[m]) : std::string_view("invalid");
+  out += '"';
+  return out;
 }
 
 /// The shortest text that reads back as the same double ("0.00025", not 0.00025000000000000001).
@@ -85,24 +96,25 @@ void gauge(std::string& out, const char* name, const char* help, const char* typ
 
 void Metrics::render(std::string& out) const {
   const auto reasons = protocol::error_reasons();
-  out += "# HELP geoprox_requests_total Requests answered, by method and outcome (ok or the "
-         "error reason).\n# TYPE geoprox_requests_total counter\n";
-  for (std::size_t m = 0; m < method_slots_; ++m) {
+  out += "# HELP geoprox_requests_total Requests answered, by transport, method and outcome (ok "
+         "or the error reason).\n# TYPE geoprox_requests_total counter\n";
+  for (std::size_t m = 0; m < latency_.size(); ++m) {
     for (std::size_t o = 0; o < outcome_slots_; ++o) {
       const std::uint64_t n = requests_[m * outcome_slots_ + o].load(std::memory_order_relaxed);
       if (n == 0) continue;
       const std::string outcome = o == 0 ? "ok" : std::string(reasons[o - 1].name);
-      out += "geoprox_requests_total{method=\"" + method_label(m) + "\",outcome=\"" + outcome +
-             "\"} " + std::to_string(n) + "\n";
+      out += "geoprox_requests_total{" + slot_labels(m, method_slots_) + ",outcome=\"" +
+             outcome + "\"} " + std::to_string(n) + "\n";
     }
   }
   out += "# HELP geoprox_request_duration_seconds Time from reading a request to queueing its "
-         "reply, by method.\n# TYPE geoprox_request_duration_seconds histogram\n";
-  for (std::size_t m = 0; m < method_slots_; ++m) {
+         "reply, by transport and method.\n# TYPE geoprox_request_duration_seconds "
+         "histogram\n";
+  for (std::size_t m = 0; m < latency_.size(); ++m) {
     const Histogram& h = latency_[m];
     const std::uint64_t count = h.count.load(std::memory_order_relaxed);
     if (count == 0) continue;
-    const std::string label = "method=\"" + method_label(m) + "\"";
+    const std::string label = slot_labels(m, method_slots_);
     std::uint64_t cumulative = 0;
     for (std::size_t b = 0; b < kBucketCount; ++b) {
       cumulative += h.buckets[b].load(std::memory_order_relaxed);

@@ -7,12 +7,17 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "protocol/errors.h"
 #include "protocol/messages.h"
 
 namespace geoprox::server {
+
+/// How a request reached the server (the `transport` label of the request metrics).
+enum class Transport : std::uint8_t { Tcp, Http };
+std::string_view transport_name(Transport transport);  ///< "tcp", "http"
 
 class Metrics {
  public:
@@ -26,7 +31,7 @@ class Metrics {
 
   /// One answered (or refused) request: `method` is nullopt for lines that were not a request
   /// of a known method; `error` nullopt for a success.
-  void record_request(std::optional<protocol::Method> method,
+  void record_request(Transport transport, std::optional<protocol::Method> method,
                       std::optional<protocol::ErrorReason> error, double seconds);
 
   /// Appends the request counters and histograms and every gauge below.
@@ -57,10 +62,11 @@ class Metrics {
     std::atomic<std::uint64_t> sum_ns{0};
     std::atomic<std::uint64_t> count{0};
   };
-  std::size_t method_slots_;  // methods + 1 ("invalid")
+  static constexpr std::size_t kTransportCount = 2;
+  std::size_t method_slots_;  // methods + 1 ("invalid"), per transport
   std::size_t outcome_slots_;  // reasons + 1 ("ok")
-  std::vector<std::atomic<std::uint64_t>> requests_;  // method x outcome
-  std::vector<Histogram> latency_;                    // per method slot
+  std::vector<std::atomic<std::uint64_t>> requests_;  // transport x method x outcome
+  std::vector<Histogram> latency_;                    // transport x method
 };
 
 /// Escapes a Prometheus label value (backslash, double quote, newline).

@@ -20,6 +20,8 @@
 #include "server/compute_pool.h"
 #include "server/connection.h"
 #include "server/connection_manager.h"
+#include "server/http_handler.h"
+#include "server/http_session.h"
 #include "server/metrics.h"
 #include "server/registry.h"
 #include "server/service.h"
@@ -54,7 +56,10 @@ struct Server::Impl {
   void start_io_threads();
   void run_io();
   void on_query_socket(tcp::socket socket);
-  void refuse_connection(tcp::socket socket, const std::string& why);
+  void on_http_socket(tcp::socket socket);
+  /// Why a new connection is turned away (draining, max_connections), or nullopt.
+  std::optional<ProtocolError> refusal();
+  void refuse_connection(tcp::socket socket, const ProtocolError& error);
   void wait_signal();
   void begin_drain();
   void drain_tick();
@@ -67,11 +72,13 @@ struct Server::Impl {
   ServerState state;
   std::unique_ptr<Registry> registry;
   std::unique_ptr<Service> service;
+  std::unique_ptr<HttpHandler> http_handler;
   asio::io_context io;
   std::unique_ptr<ComputePool> pool;
   ConnectionManager connections{metrics};
   Acceptor acceptor;
   Acceptor admin_acceptor;
+  Acceptor http_acceptor;
   asio::steady_timer drain_timer;
   asio::signal_set signals;
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
@@ -91,6 +98,7 @@ Server::Impl::Impl(Config c, ServerOptions o)
       io(static_cast<int>(config.io_threads)),
       acceptor(io, metrics, "the query port"),
       admin_acceptor(io, metrics, "the admin port"),
+      http_acceptor(io, metrics, "the HTTP port"),
       drain_timer(io),
       signals(io) {
   const unsigned threads = config.effective_compute_threads();
@@ -105,6 +113,7 @@ Server::Impl::Impl(Config c, ServerOptions o)
   }
   registry = std::make_unique<Registry>(registry_options);
   service = std::make_unique<Service>(config, *registry, metrics, state);
+  http_handler = std::make_unique<HttpHandler>(config, *service);
 }
 
 Server::Impl::~Impl() {
@@ -114,6 +123,7 @@ Server::Impl::~Impl() {
 void Server::Impl::start() {
   acceptor.listen(config.bind, config.port);
   if (config.admin_port != 0) admin_acceptor.listen(config.admin_bind, config.admin_port);
+  if (config.http_port != 0) http_acceptor.listen(config.http_bind, config.http_port);
   work.emplace(io.get_executor());
   if (options.handle_signals) {
     signals.add(SIGTERM);
@@ -128,14 +138,18 @@ void Server::Impl::start() {
       std::make_shared<AdminSession>(*service, std::move(socket))->start();
     });
   }
+  if (http_acceptor.is_open()) {
+    http_acceptor.start([this](tcp::socket socket) { on_http_socket(std::move(socket)); });
+  }
   start_io_threads();
   started = true;
-  spdlog::info("geoproxd listening on {}:{} (admin {}), {} compute threads, {} I/O threads, "
-               "{} meshes configured",
-               config.bind, acceptor.port(),
-               admin_acceptor.port() ? config.admin_bind + ":" +
-                                           std::to_string(admin_acceptor.port())
-                                     : std::string("off"),
+  const auto address = [](const std::string& bind, std::uint16_t port) {
+    return port ? bind + ":" + std::to_string(port) : std::string("off");
+  };
+  spdlog::info("geoproxd listening on {}:{} (HTTP {}, admin {}), {} compute threads, {} I/O "
+               "threads, {} meshes configured",
+               config.bind, acceptor.port(), address(config.http_bind, http_acceptor.port()),
+               address(config.admin_bind, admin_acceptor.port()),
                pool->threads(), config.io_threads, config.meshes.size());
   if (!options.port_file.empty()) write_port_file();
 }
@@ -175,16 +189,23 @@ void Server::Impl::run_io() {
   }
 }
 
-void Server::Impl::on_query_socket(tcp::socket socket) {
+std::optional<ProtocolError> Server::Impl::refusal() {
   if (state.draining.load()) {
-    refuse_connection(std::move(socket), "the server is shutting down");
-    return;
+    return ProtocolError(ErrorReason::ShuttingDown, "the server is shutting down");
   }
   const std::size_t max_connections = config.server_limits.max_connections;
   if (static_cast<std::size_t>(metrics.connections.load()) >= max_connections) {
     metrics.connections_refused.fetch_add(1, std::memory_order_relaxed);
-    refuse_connection(std::move(socket), "too many connections (max_connections " +
-                                             std::to_string(max_connections) + ")");
+    return ProtocolError(ErrorReason::Overloaded, "too many connections (max_connections " +
+                                                      std::to_string(max_connections) + ")")
+        .set_retry_after_ms(kRefusedConnectionRetryAfterMs);
+  }
+  return std::nullopt;
+}
+
+void Server::Impl::on_query_socket(tcp::socket socket) {
+  if (auto error = refusal()) {
+    refuse_connection(std::move(socket), *error);
     return;
   }
   boost::system::error_code ignored;
@@ -195,17 +216,37 @@ void Server::Impl::on_query_socket(tcp::socket socket) {
   connection->start();
 }
 
-/// Writes one error line (ShuttingDown, or Overloaded with a retry delay) and closes.
-void Server::Impl::refuse_connection(tcp::socket socket, const std::string& why) {
-  auto s = std::make_shared<tcp::socket>(std::move(socket));
-  ProtocolError error(state.draining.load() ? ErrorReason::ShuttingDown : ErrorReason::Overloaded,
-                      why);
-  if (error.reason() == ErrorReason::Overloaded) {
-    error.set_retry_after_ms(kRefusedConnectionRetryAfterMs);
+void Server::Impl::on_http_socket(tcp::socket socket) {
+  if (auto error = refusal()) {
+    // Answered before reading the request: a 503 or 429 that says why, then closed.
+    auto s = std::make_shared<tcp::socket>(std::move(socket));
+    HttpRequest request;
+    request.keep_alive(false);
+    auto response = std::make_shared<HttpResponse>(
+        http_handler->refuse(request, protocol::Method::ServerHealth, *error).response);
+    spdlog::debug("HTTP connection refused: {}", error->what());
+    boost::beast::http::async_write(
+        *s, *response, [s, response](boost::system::error_code, std::size_t) {
+          boost::system::error_code ignored;
+          s->shutdown(tcp::socket::shutdown_both, ignored);
+          s->close(ignored);
+        });
+    return;
   }
+  boost::system::error_code ignored;
+  socket.set_option(tcp::no_delay(true), ignored);
+  const HttpSessionEnv env{config, *http_handler, metrics, *pool, state, connections};
+  auto session = std::make_shared<HttpSession>(env, std::move(socket));
+  connections.add(session);
+  session->start();
+}
+
+/// Writes one error line (ShuttingDown, or Overloaded with a retry delay) and closes.
+void Server::Impl::refuse_connection(tcp::socket socket, const ProtocolError& error) {
+  auto s = std::make_shared<tcp::socket>(std::move(socket));
   auto line =
       std::make_shared<std::string>(protocol::serialize_error(protocol::RequestId(), error));
-  spdlog::debug("connection refused: {}", why);
+  spdlog::debug("connection refused: {}", error.what());
   asio::async_write(*s, asio::buffer(*line), [s, line](boost::system::error_code, std::size_t) {
     boost::system::error_code ignored;
     s->shutdown(tcp::socket::shutdown_both, ignored);
@@ -218,7 +259,7 @@ void Server::Impl::write_port_file() {
   {
     std::ofstream out(tmp, std::ios::trunc);
     out << "{\"port\": " << acceptor.port() << ", \"admin_port\": " << admin_acceptor.port()
-        << "}\n";
+        << ", \"http_port\": " << http_acceptor.port() << "}\n";
   }
   std::error_code ec;
   std::filesystem::rename(tmp, options.port_file, ec);
@@ -250,6 +291,7 @@ void Server::Impl::begin_drain() {
   drain_started = Clock::now();
   drain_deadline = drain_started + std::chrono::milliseconds(config.shutdown_timeout_ms);
   acceptor.close();
+  http_acceptor.close();
   spdlog::info("draining: not accepting, {} requests in flight, {} connections",
                metrics.in_flight.load(), metrics.connections.load());
   drain_tick();
@@ -306,6 +348,7 @@ Server::~Server() {
 void Server::start() { impl_->start(); }
 std::uint16_t Server::port() const { return impl_->acceptor.port(); }
 std::uint16_t Server::admin_port() const { return impl_->admin_acceptor.port(); }
+std::uint16_t Server::http_port() const { return impl_->http_acceptor.port(); }
 const Config& Server::config() const { return impl_->config; }
 Registry& Server::registry() { return *impl_->registry; }
 Service& Server::service() { return *impl_->service; }

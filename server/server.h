@@ -1,8 +1,9 @@
-// geoproxd as a library: the server that listens on the query port (and the admin HTTP port),
+// geoproxd as a library: the server that listens on the query port (and the HTTP and admin ports),
 // answers requests through server/service.h, reloads on SIGHUP and shuts down gracefully.
 // docs/daemon.md describes the behaviour. Inside, in the layout of Asio's HTTP server example:
-// acceptor.h (listening sockets), connection.h (one client), connection_manager.h (the open
-// connections), admin_http.h (/metrics, /healthz, /readyz).
+// acceptor.h (listening sockets), connection.h (one client of the query port), http_session.h
+// and http_handler.h (one client of the HTTP port, and what it answers), connection_manager.h
+// (the open connections), admin_http.h (/metrics, /healthz, /readyz).
 //
 // Threads: `io_threads` threads run the io_context (accept, read, frame, decode, write, and the
 // cheap methods: mesh.list, mesh.info, server.*); `compute_threads` threads run every query,
@@ -27,7 +28,8 @@ struct ServerOptions {
   /// Install SIGTERM/SIGINT (graceful shutdown; a second one stops at once) and SIGHUP
   /// (reload) handlers. Only the daemon's main() wants this; in-process tests do not.
   bool handle_signals = false;
-  /// If set, {"port": N, "admin_port": M} is written there (atomically) once listening.
+  /// If set, {"port": N, "admin_port": M, "http_port": H} is written there (atomically) once
+  /// listening.
   std::filesystem::path port_file;
 };
 
@@ -42,9 +44,10 @@ class Server {
   /// Binds the ports (throws std::runtime_error naming the address if it cannot), queues the
   /// configured meshes' loads and starts the threads. Returns at once.
   void start();
-  /// The bound ports (useful with port 0). admin_port() is 0 when the admin endpoint is off.
+  /// The bound ports (useful with port 0). admin_port() and http_port() are 0 when off.
   std::uint16_t port() const;
   std::uint16_t admin_port() const;
+  std::uint16_t http_port() const;
 
   /// Graceful shutdown: stop accepting, report not ready, answer new requests ShuttingDown,
   /// finish those in flight (at most shutdown_timeout_ms, then cancel them), close. Thread-safe,

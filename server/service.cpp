@@ -401,39 +401,78 @@ Answer Service::refuse(const protocol::Call& call, const ProtocolError& error) {
 }
 
 Answer Service::answer(const protocol::Call& call, RequestContext& context) const noexcept {
+  Outcome outcome = evaluate(call, context);
   Answer a;
+  if (!outcome.error) {
+    try {
+      const protocol::RequestId id = call.id.value_or(protocol::RequestId());
+      if (outcome.field) {
+        a.line = protocol::serialize_field_result(id, *outcome.field);
+      } else if (outcome.matrix) {
+        a.line = protocol::serialize_result(id, json(*outcome.matrix));
+      } else {
+        a.line = protocol::serialize_result(id, outcome.result);
+      }
+      if (a.line.size() > config_.limits.max_output_bytes) {
+        throw ProtocolError(ErrorReason::TooLarge,
+                            "the reply takes " + std::to_string(a.line.size()) +
+                                " bytes, more than max_output_bytes (" +
+                                std::to_string(config_.limits.max_output_bytes) + ")");
+      }
+      if (!call.id) a.line.clear();
+      return a;
+    } catch (...) {
+      outcome.error = current_error(state_.draining.load());
+    }
+  }
+  a.error = outcome.error->reason();
+  a.line.clear();
+  if (call.id) {
+    try {
+      a.line = protocol::serialize_error(*call.id, *outcome.error);
+    } catch (...) {
+      a.line = "{\"jsonrpc\":\"2.0\",\"id\":null,\"error\":{\"code\":-32603,\"data\":{"
+               "\"reason\":\"Internal\",\"retryable\":true},\"message\":\"out of memory\"}}\n";
+    }
+  }
+  return a;
+}
+
+Outcome Service::evaluate(const protocol::Call& call, RequestContext& context) const noexcept {
+  Outcome outcome;
   try {
-    const protocol::RequestId id = call.id.value_or(protocol::RequestId());
+    // The request boundary: whatever fails below becomes this request's error.
     if (const auto* field = std::get_if<protocol::FieldParams>(&call.params)) {
       auto mesh = acquire(registry_, config_, field->mesh, context);
-      a.line =
-          protocol::serialize_field_result(id, run_field(*field, *mesh, context, config_.limits));
+      outcome.field = run_field(*field, *mesh, context, config_.limits);
+    } else if (const auto* matrix = std::get_if<protocol::MatrixParams>(&call.params)) {
+      auto mesh = acquire(registry_, config_, matrix->mesh, context);
+      outcome.matrix = run_matrix(*matrix, *mesh, context, config_.limits);
     } else {
-      a.line = protocol::serialize_result(id, execute(call.params, context));
+      outcome.result = execute(call.params, context);
     }
-    if (a.line.size() > config_.limits.max_output_bytes) {
-      throw ProtocolError(ErrorReason::TooLarge,
-                          "the reply takes " + std::to_string(a.line.size()) +
-                              " bytes, more than max_output_bytes (" +
-                              std::to_string(config_.limits.max_output_bytes) + ")");
-    }
-    if (!call.id) a.line.clear();
-    return a;
   } catch (...) {
-    // The request boundary: whatever failed becomes this request's error reply.
-    const ProtocolError error = current_error(state_.draining.load());
-    a.error = error.reason();
-    a.line.clear();
-    if (call.id) {
-      try {
-        a.line = protocol::serialize_error(*call.id, error);
-      } catch (...) {
-        a.line = "{\"jsonrpc\":\"2.0\",\"id\":null,\"error\":{\"code\":-32603,\"data\":{"
-                 "\"reason\":\"Internal\",\"retryable\":true},\"message\":\"out of memory\"}}\n";
-      }
-    }
-    return a;
+    outcome.error = current_error(state_.draining.load());
   }
+  return outcome;
+}
+
+MeshGeometry Service::geometry(const std::string& id, RequestContext& context) const {
+  auto mesh = acquire(registry_, config_, id, context);
+  const TriangleMesh& surface = mesh->mesh();
+  check_output(surface.num_vertices() * 3 * sizeof(float) +
+                   surface.num_faces() * 3 * sizeof(std::uint32_t),
+               config_.limits, "the geometry");
+  MeshGeometry g;
+  g.mesh = id;
+  g.mesh_version = mesh->version();
+  g.positions.reserve(3 * surface.num_vertices());
+  for (const Vec3& p : surface.positions()) {
+    g.positions.insert(g.positions.end(), {p.x, p.y, p.z});
+  }
+  g.triangles.reserve(3 * surface.num_faces());
+  for (const auto& t : surface.faces()) g.triangles.insert(g.triangles.end(), {t[0], t[1], t[2]});
+  return g;
 }
 
 json Service::execute(const protocol::Params& params, RequestContext& context) const {

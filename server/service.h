@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/base/errors.h"
 #include "protocol/errors.h"
@@ -41,6 +42,23 @@ struct Answer {
   std::optional<protocol::ErrorReason> error;
 };
 
+/// A call's outcome before it is framed as a reply line: what the HTTP resource paths send.
+/// Exactly one of error, field, matrix and result holds the answer.
+struct Outcome {
+  std::optional<protocol::ProtocolError> error;
+  std::optional<protocol::FieldResult> field;    ///< geodesic.field, its arrays as computed
+  std::optional<protocol::MatrixResult> matrix;  ///< geodesic.matrix
+  nlohmann::json result;                         ///< any other method
+};
+
+/// Vertex positions (x, y, z per vertex) and triangles (3 vertex ids each) of a mesh in service.
+struct MeshGeometry {
+  std::string mesh;
+  std::string mesh_version;
+  std::vector<double> positions;
+  std::vector<std::uint32_t> triangles;
+};
+
 class Service {
  public:
   Service(const Config& config, Registry& registry, Metrics& metrics, ServerState& state);
@@ -58,6 +76,11 @@ class Service {
 
   /// The reply to `call` (never throws).
   Answer answer(const protocol::Call& call, RequestContext& context) const noexcept;
+  /// The outcome of `call`, not framed (never throws). answer() frames it.
+  Outcome evaluate(const protocol::Call& call, RequestContext& context) const noexcept;
+  /// The geometry of mesh `id` as served (the mesh as given, not a refinement inside its
+  /// graph). Throws ProtocolError (UnknownMesh, MeshNotReady, ...) like the queries.
+  MeshGeometry geometry(const std::string& id, RequestContext& context) const;
   /// The reply to a call that could not be run (Overloaded, ShuttingDown...).
   static Answer refuse(const protocol::Call& call, const protocol::ProtocolError& error);
 

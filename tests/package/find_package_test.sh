@@ -83,7 +83,7 @@ echo "geoprox::core offline: exact distance v:0 -> f:100:0.2:0.3:0.5 on spot = $
 mkdir -p "$work/data/meshes"
 cp "$source_dir/data/meshes/spot.obj" "$work/data/meshes/"
 cat > "$work/geoproxd.json" <<JSON
-{"bind": "127.0.0.1", "port": 0, "admin_port": 0, "compute_threads": 2, "build_threads": 2,
+{"bind": "127.0.0.1", "port": 0, "admin_port": 0, "http_port": 0, "compute_threads": 2, "build_threads": 2,
  "data_dir": "data", "graph_dir": "graphs", "log_level": "warn",
  "meshes": [{"id": "spot", "mesh": "meshes/spot.obj", "samples": 400, "neighbors": 12}]}
 JSON

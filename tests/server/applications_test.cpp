@@ -119,6 +119,7 @@ TEST(Applications, MeshWithAMetricRebuildsAPlainGraphAndAnswersInTheMetric) {
   EXPECT_EQ(config.meshes[0].build.metric_path, data.data_dir() / "meshes/grid.metric");
   config.port = 0;
   config.admin_port = 0;
+  config.http_port = 0;
   config.compute_threads = 2;
   config.build_threads = 1;
   RunningServer server(config);

@@ -270,7 +270,7 @@ struct DaemonDir {
                       {"sampling", "fmm"}});
     }
     const json settings = {{"bind", "127.0.0.1"},   {"port", 0},
-                         {"admin_port", 0},        {"compute_threads", 2},
+                         {"admin_port", 0}, {"http_port", 0},        {"compute_threads", 2},
                          {"build_threads", 2},     {"data_dir", "data"},
                          {"graph_dir", "graphs"},  {"shutdown_timeout_ms", 5000},
                          {"admin_token", "s3cret"}, {"meshes", list}};

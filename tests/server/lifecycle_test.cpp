@@ -83,6 +83,7 @@ fs::path write_config(const TestData& data, const json& extra = json::object()) 
   json config = {{"bind", "127.0.0.1"},
                  {"port", 0},
                  {"admin_port", 0},
+                 {"http_port", 0},
                  {"compute_threads", 2},
                  {"data_dir", "data"},
                  {"graph_dir", "graphs"},

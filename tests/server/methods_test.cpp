@@ -294,7 +294,7 @@ TEST_F(MethodsTest, ServerInfoHealthMetrics) {
   const json metrics = c.result("server.metrics");
   EXPECT_EQ(metrics["format"], "prometheus-text-0.0.4");
   const std::string text = metrics["text"];
-  EXPECT_NE(text.find("geoprox_requests_total{method=\"geodesic.distance\",outcome=\"ok\"}"),
+  EXPECT_NE(text.find("geoprox_requests_total{transport=\"tcp\",method=\"geodesic.distance\",outcome=\"ok\"}"),
             std::string::npos);
   EXPECT_NE(text.find("geoprox_request_duration_seconds_bucket{method=\"geodesic.distance\""),
             std::string::npos);
@@ -315,6 +315,7 @@ TEST_F(MethodsTest, UnreachableIsAnErrorInDistanceAndNullInMatrix) {
   Config config;
   config.port = 0;
   config.admin_port = 0;
+  config.http_port = 0;
   config.compute_threads = 1;
   config.build_threads = 1;
   config.data_dir = dir.path() / "data";

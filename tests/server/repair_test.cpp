@@ -93,6 +93,7 @@ Config grids_config(const TempDir& dir, bool repair, const json& extra = json::a
       parse_config({{"data_dir", "data"}, {"graph_dir", "graphs"}, {"meshes", meshes}}, dir.path());
   config.port = 0;
   config.admin_port = 0;
+  config.http_port = 0;
   config.compute_threads = 2;
   config.build_threads = 1;
   config.shutdown_timeout_ms = 5000;

@@ -127,6 +127,7 @@ inline Config spot_config(const TestData& data) {
   Config config;
   config.port = 0;
   config.admin_port = 0;
+  config.http_port = 0;
   config.compute_threads = 2;
   config.build_threads = 2;
   config.data_dir = data.data_dir();
@@ -207,6 +208,28 @@ class Client {
     }
   }
   bool eof() const { return eof_; }
+
+  /// Exactly `n` bytes (fewer on timeout or EOF).
+  std::string read_bytes(std::size_t n, std::chrono::milliseconds timeout = 10s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (buffer_.size() < n) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+          deadline - std::chrono::steady_clock::now());
+      if (left.count() <= 0) break;
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
+      char chunk[65536];
+      const ssize_t got = ::recv(fd_, chunk, sizeof chunk, 0);
+      if (got <= 0) {
+        eof_ = true;
+        break;
+      }
+      buffer_.append(chunk, static_cast<std::size_t>(got));
+    }
+    std::string out = buffer_.substr(0, std::min(n, buffer_.size()));
+    buffer_.erase(0, out.size());
+    return out;
+  }
 
   /// True when the server closed the connection (EOF or reset) within `timeout`.
   bool closed_by_peer(std::chrono::milliseconds timeout = 5s) {

@@ -2,7 +2,7 @@
 """Soak: geoproxd under mixed load with bad requests for a minute; nothing lost, no leak.
 
     soak_test.py GEOPROXD LOAD_GENERATOR SOURCE_DIR [--duration S] [--warmup S]
-                 [--sanitized ON|OFF]
+                 [--sanitized ON|OFF] [--http]
 
 1. geoproxd starts on a temporary copy of configs/default.json serving data/meshes/spot.obj
    (its graph is built at start into a temporary directory; the test waits for mesh.list to
@@ -20,6 +20,11 @@
    on spot); the daemon's legitimate growth after the warmup (per-thread scratch, allocator
    arenas, the 64 connections' buffers) was 0 to 2 MiB in the runs measured for
    docs/reliability.md. Finally SIGTERM: the daemon must drain and exit 0.
+
+--http (ctest server.soak_http): the same over the daemon's HTTP port (on an ephemeral port of
+127.0.0.1): the generator's --http, keep-alive connections pipelining 8 requests each, the HTTP
+bad kinds (no missing-id or notification there; a mesh in the body instead, and each must also
+get its status); at the end GET /healthz must answer 200 "ok" too.
 
 Under AddressSanitizer (--sanitized ON, passed by tests/CMakeLists.txt from GEOPROX_SANITIZE or
 GEOPROX_TSAN) RSS measures the sanitizer's quarantine and shadow memory, not the daemon's own
@@ -40,6 +45,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.request
 from pathlib import Path
 
 CONNECTIONS = 64
@@ -54,6 +60,12 @@ BAD_KINDS = {  # load_generator's bad kinds and the reason each must get ("" = n
     "unknown-mesh": "UnknownMesh", "face-out-of-range": "FaceOutOfRange",
     "bary-off-simplex": "BadBarycentric", "nan-coordinate": "ParseError",
     "wrong-type": "BadPoint", "missing-id": "InvalidRequest", "notification": "",
+}
+HTTP_BAD_KINDS = {  # the same over HTTP (load_generator --http; the status is checked there)
+    "malformed-json": "ParseError", "unknown-method": "NotFound",
+    "unknown-mesh": "UnknownMesh", "face-out-of-range": "FaceOutOfRange",
+    "bary-off-simplex": "BadBarycentric", "nan-coordinate": "ParseError",
+    "wrong-type": "BadPoint", "mesh-in-body": "InvalidParams",
 }
 
 
@@ -92,6 +104,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=60)
     parser.add_argument("--warmup", type=float, default=3)
     parser.add_argument("--sanitized", default="OFF")
+    parser.add_argument("--http", action="store_true")
     args = parser.parse_args()
     source = Path(args.source).resolve()
     sanitized = args.sanitized.upper() in ("ON", "1", "TRUE", "YES")
@@ -119,10 +132,12 @@ def main() -> None:
         port_file = root / "ports.json"
         log_path = root / "geoproxd.log"
         log = open(log_path, "wb")
-        daemon = subprocess.Popen(
-            [args.geoproxd, "--config", str(config_path), "--bind", "127.0.0.1", "--port", "0",
-             "--admin-port", str(free_port()), "--port-file", str(port_file)],
-            stdout=log, stderr=subprocess.STDOUT)
+        daemon_command = [args.geoproxd, "--config", str(config_path), "--bind", "127.0.0.1",
+                          "--port", "0", "--admin-port", str(free_port()),
+                          "--port-file", str(port_file)]
+        # --http-port 0 turns HTTP off; a free port when the soak runs over HTTP.
+        daemon_command += ["--http-port", str(free_port()) if args.http else "0"]
+        daemon = subprocess.Popen(daemon_command, stdout=log, stderr=subprocess.STDOUT)
 
         def daemon_output() -> str:
             log.flush()
@@ -133,7 +148,9 @@ def main() -> None:
             if daemon.poll() is not None:
                 fail(f"geoproxd exited with {daemon.returncode}:\n{daemon_output()}")
             try:
-                port = int(json.loads(port_file.read_text())["port"])
+                ports = json.loads(port_file.read_text())
+                port = int(ports["port"])
+                http_port = int(ports["http_port"]) if args.http else None
                 break
             except (OSError, ValueError, KeyError):
                 if time.monotonic() - started > 60:
@@ -149,11 +166,13 @@ def main() -> None:
             if time.monotonic() - started > 300:
                 fail(f"spot not ready after 300 s: {meshes}")
             time.sleep(0.2)
-        print(f"geoproxd pid {daemon.pid} on 127.0.0.1:{port}, spot ready after "
+        print(f"geoproxd pid {daemon.pid} on 127.0.0.1:{port}"
+              f"{f' (HTTP {http_port})' if args.http else ''}, spot ready after "
               f"{time.monotonic() - started:.1f} s")
 
         summary_path = root / "summary.json"
-        command = [args.load_generator, "--port", str(port), "--mesh", "spot",
+        command = [args.load_generator, "--port", str(http_port if args.http else port),
+                   *(["--http"] if args.http else []), "--mesh", "spot",
                    "--connections", str(CONNECTIONS), "--depth", str(DEPTH),
                    "--duration", str(args.duration), "--warmup", str(args.warmup),
                    "--drain", "20", "--mix", MIX, "--bad", str(BAD_FRACTION),
@@ -179,7 +198,7 @@ def main() -> None:
             problems.append(f"{summary['sent']} sent, {summary['answered']} answered")
         if summary["answered"] < MIN_ANSWERED:
             problems.append(f"only {summary['answered']} requests answered: the load proved little")
-        for kind, reason in BAD_KINDS.items():
+        for kind, reason in (HTTP_BAD_KINDS if args.http else BAD_KINDS).items():
             if summary["sent_by_kind"].get(f"bad:{kind}", 0) == 0:
                 problems.append(f"no bad request of kind {kind} was sent")
             elif reason and summary["expected_errors"].get(reason, 0) == 0:
@@ -194,6 +213,16 @@ def main() -> None:
             health = call(port, "server.health").get("result", {})
             if health.get("status") != "ok":
                 problems.append(f"server.health after the load: {health}")
+            if args.http:
+                try:
+                    with urllib.request.urlopen(f"http://127.0.0.1:{http_port}/healthz",
+                                                timeout=10) as response:
+                        body = response.read().decode(errors="replace").strip()
+                        if response.status != 200 or body != "ok":
+                            problems.append(f"GET /healthz after the load: {response.status} "
+                                            f"{body!r}")
+                except OSError as e:
+                    problems.append(f"GET /healthz after the load: {e}")
 
         memory = summary["memory"]
         start, end, peak = memory["start_kib"], memory["end_kib"], memory["max_kib"]

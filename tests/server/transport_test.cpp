@@ -187,7 +187,7 @@ TEST_F(TransportTest, ClientDisconnectingMidFieldCancelsItsWork) {
   EXPECT_EQ(server.server->metrics().connections.load(), 1);
   // At least one of them was cancelled (recorded as DeadlineExceeded, never sent).
   const std::string text = server.server->service().metrics_text();
-  EXPECT_NE(text.find("geoprox_requests_total{method=\"geodesic.field\",outcome=\"DeadlineExceeded\"}"),
+  EXPECT_NE(text.find("geoprox_requests_total{transport=\"tcp\",method=\"geodesic.field\",outcome=\"DeadlineExceeded\"}"),
             std::string::npos)
       << text.substr(0, 2000);
 }
@@ -341,6 +341,7 @@ std::string http_get(std::uint16_t port, const std::string& path) {
 TEST_F(TransportTest, AdminHttpServesMetricsLivenessAndReadiness) {
   Config config = spot_config(*data_);
   config.admin_port = 0;
+  config.http_port = 0;
   RunningServer probe(config);
   EXPECT_EQ(probe.server->admin_port(), 0);  // 0 = off
   // An ephemeral admin port: bind to a free port chosen by the kernel first.
@@ -363,7 +364,7 @@ TEST_F(TransportTest, AdminHttpServesMetricsLivenessAndReadiness) {
   Client(server.port()).result("geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:1"}});
   const std::string metrics = http_get(admin, "/metrics");
   EXPECT_NE(metrics.find("HTTP/1.1 200 OK"), std::string::npos);
-  EXPECT_NE(metrics.find("geoprox_requests_total{method=\"geodesic.distance\",outcome=\"ok\"} 1"),
+  EXPECT_NE(metrics.find("geoprox_requests_total{transport=\"tcp\",method=\"geodesic.distance\",outcome=\"ok\"} 1"),
             std::string::npos)
       << metrics;
   EXPECT_NE(metrics.find("geoprox_ready 1"), std::string::npos);

@@ -82,6 +82,7 @@ class Daemon:
             "bind": "127.0.0.1",
             "port": 0,
             "admin_port": 0,
+            "http_port": 0,
             "compute_threads": 2,
             "build_threads": 2,
             "data_dir": "data",
@@ -452,7 +453,7 @@ class InfoTest(LiveTestCase):
         metrics = self.client.metrics()
         self.assertEqual(metrics["format"], "prometheus-text-0.0.4")
         self.assertIn(
-            'geoprox_requests_total{method="geodesic.distance",outcome="ok"}', metrics["text"]
+            'geoprox_requests_total{transport="tcp",method="geodesic.distance",outcome="ok"}', metrics["text"]
         )
 
     def test_timeout_ms_is_sent(self) -> None:
