@@ -8,10 +8,10 @@
    files, binary ones as text). Without node_modules (scripts/install-deps runs `npm ci` there)
    the test is skipped with exit code 77.
 2. Two daemons start on configs/default.json (meshes `spot` and `dragon`; only data_dir and
-   graph_dir changed: the repository's data/ and a temporary graph directory) on ephemeral ports
-   of 127.0.0.1: "open" (no query token), which builds the graphs, then "query-token" (the query
-   token QUERY_TOKEN, from GEOPROX_QUERY_TOKEN), which maps them. The test waits until both
-   list every mesh as ready.
+   graph_dir changed: the repository's data/ and a temporary graph directory) on free ports of
+   127.0.0.1 (HTTP and query; admin off): "open" (no query token), which builds the graphs, then
+   "query-token" (the query token QUERY_TOKEN, from GEOPROX_QUERY_TOKEN), which maps them. The
+   test waits until both list every mesh as ready.
 3. Pairing (info.description of openapi.yaml says the same): each response example N under
    status S and media type M of an operation is the answer to the request made of the
    operation's examples named N: query parameters with an example N (arrays repeated), path
@@ -21,7 +21,9 @@
    body example with no response example of its name expects the operation's 204, no body.
 4. Checks per example: the status, the media type of Content-Type, every response header with an
    example N, and the body: text exactly; JSON as values, numbers to a relative 1e-9 (absolute
-   1e-12 near zero), the members IGNORED_KEYS present but not compared (they depend on the run);
+   1e-12 near zero), the members IGNORED_KEYS (mesh_version, uptime_seconds, in_flight,
+   graph_file) present but not compared, nor the header X-Geoprox-Mesh-Version (they depend on
+   the run and the graph builder's version);
    binary (`externalValue` files, as are large JSON bodies): .npy headers exactly, the array's
    elements by their dtype (X-Geoprox-Dtype), float64 to 1e-9, float32 to 2^-23 relative,
    uint32 exactly, NaN equal to NaN.
@@ -40,6 +42,7 @@ import math
 import os
 import shutil
 import signal
+import socket
 import struct
 import subprocess
 import sys
@@ -209,8 +212,15 @@ def all_cases(spec: dict) -> list[Case]:
 
 # ---- the daemons ----
 
+def free_port() -> int:
+    """A port free a moment ago (--http-port 0 turns HTTP off, as --admin-port 0 does admin)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 class Daemon:
-    """geoproxd on ephemeral query, admin and HTTP ports of 127.0.0.1."""
+    """geoproxd on an ephemeral query port and a free HTTP port of 127.0.0.1, admin port off."""
 
     def __init__(self, binary: str, config: Path, root: Path, name: str, env: dict) -> None:
         self.name = name
@@ -220,7 +230,7 @@ class Daemon:
         self.log = open(self.log_path, "wb")
         self.process = subprocess.Popen(
             [binary, "--config", str(config), "--port", "0", "--admin-port", "0",
-             "--http-port", "0", "--port-file", str(port_file)],
+             "--http-port", str(free_port()), "--port-file", str(port_file)],
             stdout=self.log, stderr=subprocess.STDOUT, env=dict(os.environ, **env))
         deadline = time.monotonic() + 60
         while True:
@@ -295,14 +305,14 @@ def json_diff(expected, actual, where: str = "$") -> str | None:
     """None when equal (numbers to REL_TOL, IGNORED_KEYS not compared), else where they differ."""
     number = (int, float)
     if isinstance(expected, bool) or isinstance(actual, bool):
-        return None if expected is actual else f"{where}: {actual!r} != {expected!r}"
+        return None if expected is actual else f"{where}: got {actual!r}, example {expected!r}"
     if isinstance(expected, number) and isinstance(actual, number):
         if close(float(expected), float(actual), REL_TOL):
             return None
-        return f"{where}: {actual!r} != {expected!r}"
+        return f"{where}: got {actual!r}, example {expected!r}"
     if isinstance(expected, dict) and isinstance(actual, dict):
         if expected.keys() != actual.keys():
-            return f"{where}: members {sorted(actual)} != {sorted(expected)}"
+            return f"{where}: got members {sorted(actual)}, example {sorted(expected)}"
         for key in expected:
             if key in IGNORED_KEYS:
                 continue
@@ -312,13 +322,13 @@ def json_diff(expected, actual, where: str = "$") -> str | None:
         return None
     if isinstance(expected, list) and isinstance(actual, list):
         if len(expected) != len(actual):
-            return f"{where}: {len(actual)} elements != {len(expected)}"
+            return f"{where}: got {len(actual)} elements, example {len(expected)}"
         for i, (e, a) in enumerate(zip(expected, actual)):
             diff = json_diff(e, a, f"{where}[{i}]")
             if diff:
                 return diff
         return None
-    return None if expected == actual else f"{where}: {actual!r} != {expected!r}"
+    return None if expected == actual else f"{where}: got {actual!r}, example {expected!r}"
 
 
 DTYPES = {"float64": ("d", 8, REL_TOL), "float32": ("f", 4, FLOAT32_REL_TOL),
@@ -339,12 +349,12 @@ def array_diff(expected: bytes, actual: bytes, dtype: str) -> str | None:
         return f"unknown dtype {dtype!r}"
     code, size, rel = DTYPES[dtype]
     if len(expected) != len(actual) or len(actual) % size:
-        return f"{len(actual)} bytes != {len(expected)}"
+        return f"got {len(actual)} bytes, example {len(expected)}"
     n = len(actual) // size
     exp, act = struct.unpack(f"<{n}{code}", expected), struct.unpack(f"<{n}{code}", actual)
     for i, (e, a) in enumerate(zip(exp, act)):
         if not (e == a if code == "I" else close(e, a, rel)):
-            return f"element {i}: {a!r} != {e!r}"
+            return f"element {i}: got {a!r}, example {e!r}"
     return None
 
 
