@@ -1,7 +1,7 @@
 # geoprox container image: the query daemon geoproxd serving the meshes of a config, plus the
 # geoprox command-line tool. docs/deployment.md is the manual (replicas, HAProxy, Kubernetes).
 #   docker build -t geoprox .
-#   docker run --rm --read-only -p 7878:7878 -p 7879:7879 geoprox     # the sample meshes
+#   docker run --rm --read-only -p 7878:7878 -p 7879:7879 -p 7880:7880 geoprox  # sample meshes
 #   docker run --rm --read-only -v $PWD/my-config:/srv/geoprox/configs:ro \
 #              -v $PWD/my-data:/srv/geoprox/data:ro -v geoprox-graphs:/srv/geoprox/var geoprox
 # The config is /srv/geoprox/configs/geoproxd.json (deploy/geoproxd.json: binds 0.0.0.0, data in
@@ -38,7 +38,7 @@ COPY deploy/geoproxd.json /srv/geoprox/configs/geoproxd.json
 WORKDIR /srv/geoprox
 USER geoprox
 VOLUME ["/srv/geoprox/configs", "/srv/geoprox/data", "/srv/geoprox/var"]
-EXPOSE 7878 7879
+EXPOSE 7878 7879 7880
 HEALTHCHECK --interval=10s --timeout=3s --start-period=60s --retries=3 \
   CMD ["geoproxd", "--probe"]
 STOPSIGNAL SIGTERM

@@ -62,7 +62,8 @@ class Replica:
         self.log = open(self.log_path, "wb")
         self.process = subprocess.Popen(
             [binary, "--config", str(config), "--bind", "127.0.0.1", "--port", "0",
-             "--admin-port", str(free_port()), "--http-port", "0", "--port-file", str(self.port_file)],
+             "--admin-port", str(free_port()), "--http-port", "0",
+             "--port-file", str(self.port_file)],
             stdout=self.log, stderr=subprocess.STDOUT)
         deadline = time.monotonic() + 60
         while True:
