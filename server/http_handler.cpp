@@ -123,22 +123,30 @@ struct HttpHandler::Shape {
 HttpHandler::HttpHandler(const Config& config, const Service& service)
     : config_(config), service_(service) {}
 
-std::variant<HttpReply, HttpWork> HttpHandler::handle(const HttpRequest& request) const noexcept {
+HttpHandler::Shape HttpHandler::shape_of(const HttpRequest& request) const {
   Shape shape;
   shape.version = request.version();
   shape.keep_alive = request.keep_alive();
   shape.head = request.method() == http::verb::head;
-  try {
-    shape.gzip = protocol::accepts_gzip(header(request, http::field::accept_encoding));
-    const std::string_view origin = header(request, http::field::origin);
-    if (!origin.empty()) {
-      for (const std::string& allowed : config_.http_cors_origins) {
-        if (allowed == "*" || allowed == origin) {
-          shape.cors_origin = allowed == "*" ? "*" : std::string(origin);
-          break;
-        }
+  shape.gzip = protocol::accepts_gzip(header(request, http::field::accept_encoding));
+  const std::string_view origin = header(request, http::field::origin);
+  if (!origin.empty()) {
+    for (const std::string& allowed : config_.http_cors_origins) {
+      if (allowed == "*" || allowed == origin) {
+        shape.cors_origin = allowed == "*" ? "*" : std::string(origin);
+        break;
       }
     }
+  }
+  return shape;
+}
+
+std::variant<HttpReply, HttpWork> HttpHandler::handle(const HttpRequest& request) const noexcept {
+  Shape shape;
+  shape.version = request.version();
+  shape.keep_alive = request.keep_alive();
+  try {
+    shape = shape_of(request);
     return route(request, shape);
   } catch (...) {
     return error_reply(shape, current_error(false), std::nullopt);
@@ -500,10 +508,8 @@ HttpReply HttpHandler::error_reply(const Shape& shape, const ProtocolError& erro
 
 HttpReply HttpHandler::refuse(const HttpRequest& request, protocol::Method method,
                               const ProtocolError& error) const noexcept {
-  Shape shape;
-  shape.version = request.version();
-  shape.keep_alive = request.keep_alive();
-  shape.head = request.method() == http::verb::head;
+  Shape shape = shape_of(request);
+  shape.gzip = false;
   return error_reply(shape, error, method);
 }
 

@@ -67,6 +67,7 @@ class HttpHandler {
 
  private:
   struct Shape;
+  Shape shape_of(const HttpRequest& request) const;
   std::variant<HttpReply, HttpWork> route(const HttpRequest& request, const Shape& shape) const;
   HttpReply query_reply(const Shape& shape, const protocol::Call& call,
                         RequestContext& context) const;

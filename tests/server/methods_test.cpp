@@ -296,7 +296,7 @@ TEST_F(MethodsTest, ServerInfoHealthMetrics) {
   const std::string text = metrics["text"];
   EXPECT_NE(text.find("geoprox_requests_total{transport=\"tcp\",method=\"geodesic.distance\",outcome=\"ok\"}"),
             std::string::npos);
-  EXPECT_NE(text.find("geoprox_request_duration_seconds_bucket{method=\"geodesic.distance\""),
+  EXPECT_NE(text.find("geoprox_request_duration_seconds_bucket{transport=\"tcp\",method=\"geodesic.distance\""),
             std::string::npos);
   // Bucket bounds in their shortest form that reads back as the same double.
   EXPECT_NE(text.find("method=\"geodesic.distance\",le=\"0.00025\"}"), std::string::npos);
