@@ -196,8 +196,10 @@ TEST(Envelope, JsonThatIsNotARequestIsAnInvalidRequest) {
 
 TEST(Message, ABatchArrayIsParsedElementByElement) {
   auto parsed = parse_message(
-      R"([{"jsonrpc":"2.0","id":1.50,"method":"a"},{"jsonrpc":"2.0","method":"b","params":{"x":1}},)"
-      R"(7,{"jsonrpc":"2.0","id":"s","method":"c","extra":0},{"jsonrpc":"2.0","id":2.5E-3,"method":"d"}])");
+      R"([{"jsonrpc":"2.0","id":1.50,"method":"a"},)"
+      R"({"jsonrpc":"2.0","method":"b","params":{"x":1}},7,)"
+      R"({"jsonrpc":"2.0","id":"s","method":"c","extra":0},)"
+      R"({"jsonrpc":"2.0","id":2.5E-3,"method":"d"}])");
   ASSERT_TRUE(std::holds_alternative<EnvelopeBatch>(parsed));
   const auto& elements = std::get<EnvelopeBatch>(parsed).elements;
   ASSERT_EQ(elements.size(), 5u);

@@ -169,7 +169,8 @@ TEST_F(BatchArrayTest, NotificationsOnlyGetNoReplyAndTheConnectionGoesOn) {
   const double failures_before = requests_counted(server, "geodesic.distance", "UnknownMesh");
   const json array = {
       request(nullptr, "geodesic.distance", distance_params("v:0", "v:1")),
-      request(nullptr, "geodesic.distance", {{"mesh", "nope"}, {"source", "v:0"}, {"target", "v:1"}}),
+      request(nullptr, "geodesic.distance",
+              {{"mesh", "nope"}, {"source", "v:0"}, {"target", "v:1"}}),
       request(nullptr, "server.health"),
       request(nullptr, "no.such.method"),
   };
@@ -244,9 +245,10 @@ TEST_F(BatchArrayTest, TooManyElementsOrPointsRefuseTheWholeArray) {
   EXPECT_EQ(error_of(many), "TooLarge");
   EXPECT_EQ(many["error"]["message"], "batch array: 4 requests exceed max_batch_requests = 3");
 
-  const json three_distances = {request("a", "geodesic.distance", distance_params("v:0", "v:1")),
-                                request("b", "geodesic.distance", distance_params("v:0", "v:2")),
-                                request(nullptr, "geodesic.distance", distance_params("v:0", "v:3"))};
+  const json three_distances = {
+      request("a", "geodesic.distance", distance_params("v:0", "v:1")),
+      request("b", "geodesic.distance", distance_params("v:0", "v:2")),
+      request(nullptr, "geodesic.distance", distance_params("v:0", "v:3"))};
   ASSERT_TRUE(c.send_line(three_distances.dump()));
   const json points = c.read_json();
   EXPECT_TRUE(points["id"].is_null()) << points.dump();
