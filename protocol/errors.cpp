@@ -17,7 +17,7 @@ constexpr std::array kReasons = {
                     "double included)"},
     ErrorReasonInfo{R::InvalidRequest, "InvalidRequest", c::kInvalidRequest, false,
                     "valid JSON but not a JSON-RPC 2.0 request object (wrong jsonrpc, method, "
-                    "params or id member; top-level arrays)"},
+                    "params or id member; an empty batch array)"},
     ErrorReasonInfo{R::UnknownMethod, "UnknownMethod", c::kMethodNotFound, false,
                     "no method of that name"},
     ErrorReasonInfo{R::InvalidParams, "InvalidParams", c::kInvalidParams, false,

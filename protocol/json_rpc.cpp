@@ -1,6 +1,7 @@
 #include "protocol/json_rpc.h"
 
 #include <array>
+#include <map>
 #include <utility>
 #include <vector>
 
@@ -28,8 +29,9 @@ std::optional<RequestId> RequestId::from_json(const json& value) {
 namespace {
 
 /// Builds the document like nlohmann's own DOM parser, and in addition: stops at the nesting
-/// limit before going deeper, refuses duplicate keys, and keeps the text of a top-level "id"
-/// that is a non-integer number (nlohmann would turn it into a double and print it differently).
+/// limit before going deeper, refuses duplicate keys, and keeps the text of a request's "id"
+/// that is a non-integer number (nlohmann would turn it into a double and print it differently):
+/// the "id" of the top-level object, or of each object element of a top-level array.
 class BoundedDomBuilder final : public json::json_sax_t {
  public:
   BoundedDomBuilder(json& root, std::size_t max_depth) : root_(root), max_depth_(max_depth) {}
@@ -40,6 +42,7 @@ class BoundedDomBuilder final : public json::json_sax_t {
   bool number_unsigned(number_unsigned_t value) override { return store(value); }
   bool number_float(number_float_t value, const string_t& text) override {
     if (at_top_level_id()) float_id_text_ = text;
+    if (at_element_id()) element_float_id_texts_[open_containers_.front()->size() - 1] = text;
     return store(value);
   }
   bool string(string_t& value) override { return store(std::move(value)); }
@@ -72,9 +75,18 @@ class BoundedDomBuilder final : public json::json_sax_t {
   const std::optional<std::string>& parse_error_message() const { return parse_error_message_; }
   std::size_t parse_error_position() const { return parse_error_position_; }
   const std::optional<std::string>& float_id_text() const { return float_id_text_; }
+  /// By index of the element of a top-level array.
+  std::map<std::size_t, std::string>& element_float_id_texts() { return element_float_id_texts_; }
 
  private:
-  bool at_top_level_id() const { return open_containers_.size() == 1 && pending_key_ == "id"; }
+  bool at_top_level_id() const {
+    return open_containers_.size() == 1 && open_containers_.front()->is_object() &&
+           pending_key_ == "id";
+  }
+  bool at_element_id() const {
+    return open_containers_.size() == 2 && open_containers_.front()->is_array() &&
+           open_containers_.back()->is_object() && pending_key_ == "id";
+  }
 
   template <typename Value>
   bool store(Value&& value) {
@@ -123,6 +135,7 @@ class BoundedDomBuilder final : public json::json_sax_t {
   std::optional<std::string> parse_error_message_;
   std::size_t parse_error_position_ = 0;
   std::optional<std::string> float_id_text_;
+  std::map<std::size_t, std::string> element_float_id_texts_;
 };
 
 /// Byte offset of the first byte that is not part of well-formed UTF-8 (RFC 3629: no overlong
@@ -178,6 +191,7 @@ std::string strip_nlohmann_prefix(std::string message) {
 struct ParsedDocument {
   json root;
   std::optional<std::string> float_id_text;
+  std::map<std::size_t, std::string> element_float_id_texts;  ///< when `root` is an array
   std::optional<ProtocolError> error;
 };
 
@@ -188,6 +202,7 @@ ParsedDocument parse_document(std::string_view line, std::size_t max_depth) {
       json::sax_parse(line.begin(), line.end(), &builder, json::input_format_t::json,
                       /*strict=*/true, /*ignore_comments=*/false);
   document.float_id_text = builder.float_id_text();
+  document.element_float_id_texts = std::move(builder.element_float_id_texts());
   if (complete) return document;
 
   if (builder.too_deep()) {
@@ -210,15 +225,29 @@ ParsedDocument parse_document(std::string_view line, std::size_t max_depth) {
   return document;
 }
 
-/// The id of a (possibly partial) top-level object, if present and of a valid type.
-std::optional<RequestId> read_id(const ParsedDocument& document) {
-  if (!document.root.is_object()) return std::nullopt;
-  const auto member = document.root.find("id");
-  if (member == document.root.end()) return std::nullopt;
-  if (member->is_number_float() && document.float_id_text) {
-    return RequestIdAccess::from_text(*document.float_id_text);
+/// The id of a (possibly partial) request object, if present and of a valid type;
+/// `float_id_text` is the text of its id when that is a non-integer number.
+std::optional<RequestId> read_id(const json& request,
+                                 const std::optional<std::string>& float_id_text) {
+  if (!request.is_object()) return std::nullopt;
+  const auto member = request.find("id");
+  if (member == request.end()) return std::nullopt;
+  if (member->is_number_float() && float_id_text) {
+    return RequestIdAccess::from_text(*float_id_text);
   }
   return RequestId::from_json(*member);
+}
+
+std::optional<RequestId> read_id(const ParsedDocument& document) {
+  return read_id(document.root, document.float_id_text);
+}
+
+/// The id of element `index` of a top-level array.
+std::optional<RequestId> read_element_id(const ParsedDocument& document, std::size_t index) {
+  const auto text = document.element_float_id_texts.find(index);
+  return read_id(document.root[index], text == document.element_float_id_texts.end()
+                                           ? std::nullopt
+                                           : std::optional<std::string>(text->second));
 }
 
 constexpr std::array<std::string_view, 4> kEnvelopeMembers = {"jsonrpc", "id", "method", "params"};
@@ -227,20 +256,10 @@ EnvelopeError invalid_request(RequestId id, const std::string& message) {
   return {std::move(id), ProtocolError(ErrorReason::InvalidRequest, message)};
 }
 
-}  // namespace
-
-std::variant<Envelope, EnvelopeError> parse_envelope(std::string_view line,
-                                                     std::size_t max_nesting_depth) {
-  ParsedDocument document = parse_document(line, max_nesting_depth);
-  std::optional<RequestId> id = read_id(document);
-  if (document.error) return EnvelopeError{id.value_or(RequestId()), *document.error};
-
-  json& root = document.root;
-  if (root.is_array()) {
-    return invalid_request({},
-                           "batch arrays are not supported: send one request object per "
-                           "line (requests may be pipelined) or use the \"batch\" method");
-  }
+/// Checks one request object (the whole message, or an element of a batch array) whose id,
+/// read beforehand, is `id`; moves its params out of `root`.
+std::variant<Envelope, EnvelopeError> check_envelope(json& root,
+                                                     const std::optional<RequestId>& id) {
   if (!root.is_object()) {
     return invalid_request(
         {}, std::string("a request must be a JSON object, not ") + detail::type_of(root));
@@ -290,6 +309,41 @@ std::variant<Envelope, EnvelopeError> parse_envelope(std::string_view line,
     envelope.params = std::move(*params);
   }
   return envelope;
+}
+
+}  // namespace
+
+std::variant<Envelope, EnvelopeError> parse_envelope(std::string_view line,
+                                                     std::size_t max_nesting_depth) {
+  ParsedDocument document = parse_document(line, max_nesting_depth);
+  const std::optional<RequestId> id = read_id(document);
+  if (document.error) return EnvelopeError{id.value_or(RequestId()), *document.error};
+  if (document.root.is_array()) {
+    return invalid_request({}, "expected one request object, not a batch array");
+  }
+  return check_envelope(document.root, id);
+}
+
+std::variant<Envelope, EnvelopeError, EnvelopeBatch> parse_message(
+    std::string_view text, std::size_t max_nesting_depth) {
+  ParsedDocument document = parse_document(text, max_nesting_depth);
+  const std::optional<RequestId> id = read_id(document);
+  if (document.error) return EnvelopeError{id.value_or(RequestId()), *document.error};
+  json& root = document.root;
+  if (!root.is_array()) {
+    std::variant<Envelope, EnvelopeError> single = check_envelope(root, id);
+    if (auto* envelope = std::get_if<Envelope>(&single)) return std::move(*envelope);
+    return std::get<EnvelopeError>(std::move(single));
+  }
+  if (root.empty()) {
+    return invalid_request({}, "empty batch array: a batch array needs at least one request");
+  }
+  EnvelopeBatch batch;
+  batch.elements.reserve(root.size());
+  for (std::size_t i = 0; i < root.size(); ++i) {
+    batch.elements.push_back(check_envelope(root[i], read_element_id(document, i)));
+  }
+  return batch;
 }
 
 json parse_json_text(std::string_view text, std::size_t max_nesting_depth) {

@@ -1,6 +1,7 @@
-// JSON-RPC 2.0 envelope: one request line in, one reply line out.
+// JSON-RPC 2.0 envelope: one message (a line) in, one reply line out.
 //
-// Requests are single objects `{"jsonrpc": "2.0", "id": ..., "method": "...", "params": {...}}`.
+// A message is a single request object `{"jsonrpc": "2.0", "id": ..., "method": "...",
+// "params": {...}}` or a batch array of them (JSON-RPC 2.0, section 6).
 // - `id` is a number, a string or null, and is echoed back: numbers byte for byte (the text as
 //   sent, e.g. 1.50 or 123456789012345678901234; only -0 comes back as 0), strings as the same
 //   JSON string. Without `id` the request is a notification: it is carried out, but never
@@ -8,8 +9,10 @@
 // - `params` is an object (named parameters) or absent; positional (array) params are refused.
 // - Unknown members and duplicate keys anywhere are refused (InvalidRequest): a typo must not be
 //   silently ignored, and with duplicate keys two parsers could read different requests.
-// - Top-level arrays (JSON-RPC batches) are refused with InvalidRequest: pipeline single requests
-//   (replies may come out of order; match them by id) or use the `batch` method.
+// - A batch array `[request, ...]` (parse_message) is answered by one line holding the array of
+//   the replies of its elements that are owed one, nothing if all are notifications. Each element
+//   is checked on its own: one that is not a request gets its own error (id null) in that array.
+//   An empty array is one InvalidRequest (not an array). The array counts as a nesting level.
 // When the line cannot be read, the error reply carries the id if it was read before the failure
 // (so a pipelining client can still match it), else null.
 //
@@ -25,6 +28,7 @@
 #include <string>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include "protocol/errors.h"
 #include "protocol/limits.h"
@@ -68,10 +72,22 @@ struct EnvelopeError {
   ProtocolError error;
 };
 
-/// Parses one line (without its "\n"). ParseError for bad JSON or UTF-8, TooLarge beyond
-/// `max_nesting_depth`, InvalidRequest for a JSON value that is not a request.
+/// Parses one line (without its "\n") that must be a single request object. ParseError for bad
+/// JSON or UTF-8, TooLarge beyond `max_nesting_depth`, InvalidRequest for a JSON value that is
+/// not a request (a batch array included: parse_message reads those).
 std::variant<Envelope, EnvelopeError> parse_envelope(
     std::string_view line, std::size_t max_nesting_depth = kDefaultMaxNestingDepth);
+
+/// The elements of a batch array, each a request envelope or the error answering it, in order.
+struct EnvelopeBatch {
+  std::vector<std::variant<Envelope, EnvelopeError>> elements;  ///< never empty
+};
+
+/// Parses one message, a request object or a batch array, once. A message that is not JSON, too
+/// deep or an empty array is one EnvelopeError; in a non-empty array each element is checked as
+/// parse_envelope() checks a request object.
+std::variant<Envelope, EnvelopeError, EnvelopeBatch> parse_message(
+    std::string_view text, std::size_t max_nesting_depth = kDefaultMaxNestingDepth);
 
 /// Any JSON document (an HTTP request body), read with the same checks as a request line: throws
 /// ProtocolError ParseError for bad JSON or UTF-8, InvalidRequest for a duplicate key, TooLarge

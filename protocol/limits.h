@@ -2,7 +2,7 @@
 //
 // The parser refuses anything beyond them with reason TooLarge before any work is queued, so one
 // client cannot make the server allocate or compute without bound. The server builds one Limits
-// from its config (defaults below) and passes it to LineFramer, decode_request() and server.info.
+// from its config (defaults below) and passes it to LineFramer, decode_message() and server.info.
 #pragma once
 
 #include <cstddef>
@@ -18,17 +18,18 @@ inline constexpr std::size_t kDefaultMaxNestingDepth = 64;
 struct Limits {
   /// Bytes of one request line, without its "\n" (LineFramer).
   std::size_t max_line_bytes = kDefaultMaxLineBytes;
-  /// Nested arrays/objects in one line, the top-level object counting 1. Well-formed requests
-  /// need at most 7 (a point inside a batch); the limit protects the parser and anything that
-  /// walks the document.
+  /// Nested arrays/objects in one line, the top-level object (or batch array) counting 1.
+  /// Well-formed requests need at most 7 (a point inside a batch), one more inside a batch
+  /// array; the limit protects the parser and anything that walks the document.
   std::size_t max_nesting_depth = kDefaultMaxNestingDepth;
-  /// Points named by one request: sources + targets; a batch counts all its entries together.
+  /// Points named by one request: sources + targets; a batch (method or array) counts all its
+  /// requests together.
   std::size_t max_points_per_request = 10'000;
   /// sources x targets of one geodesic.matrix.
   std::size_t max_matrix_pairs = 1'000'000;
   /// Sources of one geodesic.field.
   std::size_t max_field_sources = 1'000;
-  /// Entries of one batch.
+  /// Entries of one batch, and elements of one batch array.
   std::size_t max_batch_requests = 1'000;
   /// Bytes of one reply line; the server checks it while serializing (TooLarge).
   std::size_t max_output_bytes = std::size_t{64} << 20;

@@ -201,6 +201,10 @@ struct BatchEntry {
 
 Method method_of(const Params& params);
 
+/// Points `params` names, as max_points_per_request counts them: sources + targets, a path's or
+/// distance's two ends, a spline's control points; a batch counts its valid entries together.
+std::size_t point_count(const Params& params);
+
 /// A method's params, validated. Throws ProtocolError: InvalidParams (missing, mistyped, unknown
 /// members), point reasons (BadPoint, BadBarycentric, ...), PathNotAllowed, TooLarge (limits).
 /// `params` must be an object (parse_envelope() guarantees it). `timeout_ms`, if given, is

@@ -125,7 +125,9 @@ std::optional<std::int64_t> read_timeout(const ObjectFields& fields) {
   return std::nullopt;
 }
 
-std::size_t count_points(const Params& params) {
+}  // namespace
+
+std::size_t point_count(const Params& params) {
   if (std::holds_alternative<DistanceParams>(params)) return 2;
   if (std::holds_alternative<PathParams>(params)) return 2;
   if (const auto* p = std::get_if<FieldParams>(&params)) return p->sources.size();
@@ -134,8 +136,17 @@ std::size_t count_points(const Params& params) {
   }
   if (std::holds_alternative<ExpmapParams>(params)) return 1;
   if (const auto* p = std::get_if<SplineParams>(&params)) return p->control.size();
+  if (const auto* p = std::get_if<BatchParams>(&params)) {
+    std::size_t total = 0;
+    for (const BatchEntry& entry : p->requests) {
+      if (entry.params) total += point_count(*entry.params);
+    }
+    return total;
+  }
   return 0;
 }
+
+namespace {
 
 Params parse_batch(const ObjectFields& fields, const Limits& limits) {
   const json& requests = fields.require("requests");
@@ -179,7 +190,7 @@ Params parse_batch(const ObjectFields& fields, const Limits& limits) {
                           std::string("must be an object, not ") + detail::type_of(*params));
       }
       entry.params = parse_params(*method, params ? *params : kNoParams, limits, &entry.timeout_ms);
-      total_points += count_points(*entry.params);
+      total_points += point_count(*entry.params);
     } catch (const ProtocolError& error) {
       // Messages of entries name the entry's own params ("params.source"): say which entry.
       const std::string message = error.what();

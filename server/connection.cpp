@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -30,6 +31,11 @@ std::string clip(std::string_view text, std::size_t max_bytes) {
   std::string out(text.substr(0, max_bytes));
   out += "...";
   return out;
+}
+
+ProtocolError shutting_down_error() {
+  return ProtocolError(ErrorReason::ShuttingDown,
+                       "the server is shutting down; retry on another instance");
 }
 
 /// The request id as logged: its JSON value, or its clipped text when it is long.
@@ -143,12 +149,16 @@ void Connection::process_frames() {
 
 void Connection::handle_line(const std::string& line) {
   const auto received = Clock::now();
-  auto decoded = protocol::decode_request(line, env_.config.limits);
+  auto decoded = protocol::decode_message(line, env_.config.limits);
+  if (auto* batch = std::get_if<protocol::BatchCall>(&decoded)) {
+    dispatch_batch(std::move(*batch), received);
+    return;
+  }
   if (auto* rejection = std::get_if<protocol::Rejection>(&decoded)) {
     const auto method = protocol::method_from_name(rejection->method_name);
     if (!authenticated_ && method && !protocol::allowed_before_auth(*method)) {
       // Before server.auth, even a malformed query learns nothing but Unauthorized.
-      rejection->error = unauthenticated_error(*method);
+      rejection->error = Service::unauthenticated_error(*method);
     }
     env_.metrics.record_request(Transport::Tcp, method, rejection->error.reason(), 0);
     log_request(rejection->id ? &*rejection->id : nullptr, rejection->method_name, "", received,
@@ -165,7 +175,7 @@ void Connection::dispatch(protocol::Call call, Clock::time_point received) {
   // here, in line order, so a request pipelined after it sees its outcome.
   if (!authenticated_ && !protocol::allowed_before_auth(method)) {
     finish_request(call, method, "", received,
-                   Service::refuse(call, unauthenticated_error(method)));
+                   Service::refuse(call, Service::unauthenticated_error(method)));
     return;
   }
   if (Service::answered_inline(method)) {
@@ -178,10 +188,7 @@ void Connection::dispatch(protocol::Call call, Clock::time_point received) {
     return;
   }
   if (env_.state.draining.load()) {
-    finish_request(call, method, "", received,
-                   Service::refuse(call, ProtocolError(ErrorReason::ShuttingDown,
-                                                       "the server is shutting down; retry "
-                                                       "on another instance")));
+    finish_request(call, method, "", received, Service::refuse(call, shutting_down_error()));
     return;
   }
   submit_to_pool(std::move(call), method, received);
@@ -189,8 +196,8 @@ void Connection::dispatch(protocol::Call call, Clock::time_point received) {
 
 void Connection::submit_to_pool(protocol::Call call, protocol::Method method,
                                 Clock::time_point received) {
-  const std::uint64_t key = next_key_++;
   auto cancelled = std::make_shared<std::atomic<bool>>(false);
+  const std::uint64_t key = begin_pool_work(cancelled);
   const auto deadline =
       received +
       std::chrono::milliseconds(env_.config.limits.effective_timeout_ms(call.timeout_ms));
@@ -207,11 +214,8 @@ void Connection::submit_to_pool(protocol::Call call, protocol::Method method,
       answer = self->env_.service.answer(*shared_call, context);
     }
     self->deliver(Finished{key, shared_call, method, std::move(context.mesh), received,
-                           std::move(answer)});
+                           std::move(answer), nullptr});
   };
-  active_.emplace(key, Active{cancelled});
-  ++inflight_;
-  env_.metrics.in_flight.fetch_add(1, std::memory_order_relaxed);
   bool queued = true;
   if (protocol::is_admin_method(method)) {
     env_.pool.submit(std::move(task));
@@ -219,22 +223,98 @@ void Connection::submit_to_pool(protocol::Call call, protocol::Method method,
     queued = env_.pool.try_submit(std::move(task));
   }
   if (!queued) {
-    active_.erase(key);
-    --inflight_;
-    env_.metrics.in_flight.fetch_sub(1, std::memory_order_relaxed);
-    const std::size_t waiting = env_.pool.waiting();
-    ProtocolError error(ErrorReason::Overloaded,
-                        "compute queue full (" + std::to_string(waiting) + " waiting)");
-    error.set_retry_after_ms(env_.pool.retry_after_ms());
-    finish_request(*shared_call, method, "", received, Service::refuse(*shared_call, error));
+    end_pool_work(key);
+    finish_request(*shared_call, method, "", received,
+                   Service::refuse(*shared_call, overloaded_error()));
   }
 }
 
-ProtocolError Connection::unauthenticated_error(protocol::Method method) {
-  return ProtocolError(ErrorReason::Unauthorized,
-                       "this server needs server.auth with its query token before " +
-                           std::string(protocol::method_name(method)) +
-                           " (server.health says auth_required)");
+/// A batch array: answered inline when every call in it is an inline method (or the connection
+/// is not authenticated: its calls are then refused), else one compute-pool task running its
+/// calls in order under the longest of their deadlines. All of it counts as one in flight.
+void Connection::dispatch_batch(protocol::BatchCall batch, Clock::time_point received) {
+  bool all_inline = true;
+  bool has_admin_call = false;
+  for (const auto& element : batch.elements) {
+    if (const auto* call = std::get_if<protocol::Call>(&element)) {
+      all_inline = all_inline && Service::answered_inline(call->method());
+      has_admin_call = has_admin_call || protocol::is_admin_method(call->method());
+    }
+  }
+  if (all_inline || !authenticated_) {
+    RequestContext context;
+    Answer answer = env_.service.answer_batch(batch, context, authenticated_, Transport::Tcp);
+    finish_batch(batch, context.mesh, received, std::move(answer));
+    return;
+  }
+  if (env_.state.draining.load()) {
+    finish_batch(batch, "", received,
+                 env_.service.refuse_batch(batch, shutting_down_error(), authenticated_,
+                                           Transport::Tcp));
+    return;
+  }
+  // Admin calls are never refused Overloaded, alone or in an array.
+  submit_batch_to_pool(std::move(batch), received, has_admin_call);
+}
+
+void Connection::submit_batch_to_pool(protocol::BatchCall batch, Clock::time_point received,
+                                      bool never_refused) {
+  auto cancelled = std::make_shared<std::atomic<bool>>(false);
+  const std::uint64_t key = begin_pool_work(cancelled);
+  std::int64_t longest_timeout_ms = 0;
+  for (const auto& element : batch.elements) {
+    if (const auto* call = std::get_if<protocol::Call>(&element)) {
+      longest_timeout_ms = std::max(longest_timeout_ms,
+                                    env_.config.limits.effective_timeout_ms(call->timeout_ms));
+    }
+  }
+  const auto deadline = received + std::chrono::milliseconds(longest_timeout_ms);
+  auto shared_batch = std::make_shared<protocol::BatchCall>(std::move(batch));
+  // Once cancelled (the client is gone, or the shutdown deadline passed), each remaining call
+  // fails fast with DeadlineExceeded or ShuttingDown, and nothing is sent.
+  auto task = [self = shared_from_this(), key, cancelled, shared_batch, deadline, received] {
+    RequestContext context;
+    context.interrupt.deadline = deadline;
+    context.interrupt.cancelled = cancelled.get();
+    Answer answer =
+        self->env_.service.answer_batch(*shared_batch, context, true, Transport::Tcp);
+    self->deliver(Finished{key, nullptr, protocol::Method::Batch, std::move(context.mesh),
+                           received, std::move(answer), shared_batch});
+  };
+  bool queued = true;
+  if (never_refused) {
+    env_.pool.submit(std::move(task));
+  } else {
+    queued = env_.pool.try_submit(std::move(task));
+  }
+  if (!queued) {
+    end_pool_work(key);
+    finish_batch(*shared_batch, "", received,
+                 env_.service.refuse_batch(*shared_batch, overloaded_error(), authenticated_,
+                                            Transport::Tcp));
+  }
+}
+
+std::uint64_t Connection::begin_pool_work(std::shared_ptr<std::atomic<bool>> cancelled) {
+  const std::uint64_t key = next_key_++;
+  active_.emplace(key, Active{std::move(cancelled)});
+  ++inflight_;
+  env_.metrics.in_flight.fetch_add(1, std::memory_order_relaxed);
+  return key;
+}
+
+void Connection::end_pool_work(std::uint64_t key) {
+  active_.erase(key);
+  --inflight_;
+  env_.metrics.in_flight.fetch_sub(1, std::memory_order_relaxed);
+}
+
+ProtocolError Connection::overloaded_error() const {
+  const std::size_t waiting = env_.pool.waiting();
+  ProtocolError error(ErrorReason::Overloaded,
+                      "compute queue full (" + std::to_string(waiting) + " waiting)");
+  error.set_retry_after_ms(env_.pool.retry_after_ms());
+  return error;
 }
 
 /// Keeps the outcome of a server.auth: right token, authenticated; wrong token (or any
@@ -279,10 +359,12 @@ void Connection::complete() {
   }
   batching_writes_ = true;
   for (Finished& done : completing_) {
-    active_.erase(done.key);
-    --inflight_;
-    env_.metrics.in_flight.fetch_sub(1, std::memory_order_relaxed);
-    finish_request(*done.call, done.method, done.mesh, done.received, std::move(done.answer));
+    end_pool_work(done.key);
+    if (done.batch) {
+      finish_batch(*done.batch, done.mesh, done.received, std::move(done.answer));
+    } else {
+      finish_request(*done.call, done.method, done.mesh, done.received, std::move(done.answer));
+    }
   }
   completing_.clear();
   batching_writes_ = false;
@@ -297,6 +379,15 @@ void Connection::finish_request(const protocol::Call& call, protocol::Method met
   env_.metrics.record_request(Transport::Tcp, method, answer.error, seconds);
   log_request(call.id ? &*call.id : nullptr, call.method_name, mesh, received, answer.error,
               answer.error ? std::string_view(answer.line) : std::string_view());
+  if (!answer.line.empty() && !closed_) enqueue_write(std::move(answer.line));
+}
+
+/// The metrics have each element already (Service::answer_batch); the log has one line for the
+/// array.
+void Connection::finish_batch(const protocol::BatchCall& batch, const std::string& mesh,
+                              Clock::time_point received, Answer answer) {
+  log_request(nullptr, "batch array of " + std::to_string(batch.elements.size()), mesh, received,
+              answer.error, answer.error ? std::string_view(answer.line) : std::string_view());
   if (!answer.line.empty() && !closed_) enqueue_write(std::move(answer.line));
 }
 

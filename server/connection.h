@@ -1,6 +1,7 @@
 // One client of the query port (private to server/): reads lines, frames and decodes them,
 // answers the cheap methods inline and hands the others to the compute pool, and writes the
-// replies in the order they finish (pipelining, up to max_inflight_per_connection at once).
+// replies in the order they finish (pipelining, up to max_inflight_per_connection at once). A
+// batch array line is one unit of work: inline when all its calls are, else one pool task.
 //
 // Threads: every member is used on the connection's strand only, except the inbox of finished
 // queries that compute threads fill (deliver()).
@@ -62,11 +63,12 @@ class Connection : public Session, public std::enable_shared_from_this<Connectio
   /// A query a compute thread finished, waiting for the strand to send its reply.
   struct Finished {
     std::uint64_t key;
-    std::shared_ptr<protocol::Call> call;
-    protocol::Method method;
+    std::shared_ptr<protocol::Call> call;  ///< null for a batch array
+    protocol::Method method;               ///< of `call`
     std::string mesh;
     Clock::time_point received;
     Answer answer;
+    std::shared_ptr<protocol::BatchCall> batch;  ///< set for a batch array
   };
 
   const ServerLimits& limits() const { return env_.config.server_limits; }
@@ -78,7 +80,13 @@ class Connection : public Session, public std::enable_shared_from_this<Connectio
   void handle_line(const std::string& line);
   void dispatch(protocol::Call call, Clock::time_point received);
   void submit_to_pool(protocol::Call call, protocol::Method method, Clock::time_point received);
-  static protocol::ProtocolError unauthenticated_error(protocol::Method method);
+  void dispatch_batch(protocol::BatchCall batch, Clock::time_point received);
+  void submit_batch_to_pool(protocol::BatchCall batch, Clock::time_point received,
+                            bool never_refused);
+  /// One unit of work handed to the compute pool: in flight, cancellable by close().
+  std::uint64_t begin_pool_work(std::shared_ptr<std::atomic<bool>> cancelled);
+  void end_pool_work(std::uint64_t key);
+  protocol::ProtocolError overloaded_error() const;
   void note_auth(const Answer& answer);
 
   // Completing: compute threads deliver, the strand completes.
@@ -86,6 +94,8 @@ class Connection : public Session, public std::enable_shared_from_this<Connectio
   void complete();
   void finish_request(const protocol::Call& call, protocol::Method method,
                       const std::string& mesh, Clock::time_point received, Answer answer);
+  void finish_batch(const protocol::BatchCall& batch, const std::string& mesh,
+                    Clock::time_point received, Answer answer);
   void log_request(const protocol::RequestId* id, std::string_view method, std::string_view mesh,
                    Clock::time_point received, std::optional<protocol::ErrorReason> error,
                    std::string_view reply);

@@ -313,6 +313,9 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
     case HttpRoute::Kind::Geometry: {
       HttpWork work;
       work.method = protocol::Method::MeshInfo;
+      work.refuse = [this, shape](const ProtocolError& error) {
+        return error_reply(shape, error, protocol::Method::MeshInfo);
+      };
       work.run = [this, shape, mesh = route.mesh](RequestContext& context) {
         HttpReply reply;
         reply.method = protocol::Method::MeshInfo;
@@ -373,44 +376,90 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
       HttpWork work;
       work.method = method;
       work.timeout_ms = call.timeout_ms;
+      work.refuse = [this, shape, method](const ProtocolError& error) {
+        return error_reply(shape, error, method);
+      };
       work.run = [this, shape, call = std::move(call)](RequestContext& context) {
         return query_reply(shape, call, context);
       };
       return work;
     }
-    case HttpRoute::Kind::Rpc: {
-      auto decoded = protocol::decode_request(request.body(), config_.limits);
-      if (auto* rejection = std::get_if<protocol::Rejection>(&decoded)) {
-        const auto method = protocol::method_from_name(rejection->method_name);
-        if (!rejection->id) {
-          HttpReply reply;
-          reply.method = method;
-          reply.error = rejection->error.reason();
-          reply.response.result(http::status::no_content);
-          return finish(shape, std::move(reply));
-        }
-        return rpc_reply(shape, method, *rejection->reply_line(), rejection->error.reason(), "");
-      }
-      auto call = std::make_shared<protocol::Call>(std::move(std::get<protocol::Call>(decoded)));
-      const protocol::Method method = call->method();
-      auto run = [this, shape, call, method](RequestContext& context) {
-        Answer answer = service_.answer(*call, context);
-        return rpc_reply(shape, method, std::move(answer.line), answer.error, context.mesh);
-      };
-      if (Service::answered_inline(method)) {
-        RequestContext context;
-        return run(context);
-      }
-      HttpWork work;
-      work.method = method;
-      work.timeout_ms = call->timeout_ms;
-      work.run = std::move(run);
-      return work;
-    }
+    case HttpRoute::Kind::Rpc:
+      return rpc(request, shape);
     default:
       break;
   }
   throw ProtocolError(ErrorReason::Internal, "unrouted path " + in_quotes(path));
+}
+
+std::variant<HttpReply, HttpWork> HttpHandler::rpc(const HttpRequest& request,
+                                                  const Shape& shape) const {
+  auto decoded = protocol::decode_message(request.body(), config_.limits);
+  if (auto* rejection = std::get_if<protocol::Rejection>(&decoded)) {
+    const auto method = protocol::method_from_name(rejection->method_name);
+    std::string line = rejection->reply_line().value_or(std::string());
+    return rpc_reply(shape, method, std::move(line), rejection->error.reason(), "");
+  }
+  if (auto* single = std::get_if<protocol::Call>(&decoded)) {
+    auto call = std::make_shared<const protocol::Call>(std::move(*single));
+    const protocol::Method method = call->method();
+    auto run = [this, shape, call, method](RequestContext& context) {
+      Answer answer = service_.answer(*call, context);
+      return rpc_reply(shape, method, std::move(answer.line), answer.error, context.mesh);
+    };
+    if (Service::answered_inline(method)) {
+      RequestContext context;
+      return run(context);
+    }
+    HttpWork work;
+    work.method = method;
+    work.timeout_ms = call->timeout_ms;
+    work.refuse = [this, shape, call, method](const ProtocolError& error) {
+      Answer answer = Service::refuse(*call, error);
+      return rpc_reply(shape, method, std::move(answer.line), answer.error, "");
+    };
+    work.run = std::move(run);
+    return work;
+  }
+  // A batch array: one unit of work whose elements the service answers (and counts) in order.
+  auto batch = std::make_shared<const protocol::BatchCall>(
+      std::move(std::get<protocol::BatchCall>(decoded)));
+  HttpWork work;
+  work.method = protocol::Method::Batch;
+  bool all_inline = true;
+  std::int64_t longest_ms = 0;
+  for (const auto& element : batch->elements) {
+    const auto* call = std::get_if<protocol::Call>(&element);
+    if (call == nullptr) continue;
+    all_inline = all_inline && Service::answered_inline(call->method());
+    // An admin call makes the array admin work: queued whatever the backlog.
+    if (protocol::is_admin_method(call->method())) work.method = call->method();
+    longest_ms = std::max(longest_ms, config_.limits.effective_timeout_ms(call->timeout_ms));
+  }
+  work.timeout_ms = longest_ms;
+  const auto batch_reply = [this, shape](Answer answer, std::string mesh) {
+    // Each element is in the metrics already (Service::answer_batch); the array is a success
+    // unless it was refused as a whole.
+    HttpReply reply = rpc_reply(shape, protocol::Method::Batch, std::move(answer.line),
+                                std::nullopt, std::move(mesh));
+    reply.recorded = true;
+    return reply;
+  };
+  work.run = [this, batch, batch_reply](RequestContext& context) {
+    Answer answer = service_.answer_batch(*batch, context, true, Transport::Http);
+    return batch_reply(std::move(answer), context.mesh);
+  };
+  if (all_inline) {
+    RequestContext context;
+    return work.run(context);
+  }
+  work.refuse = [this, batch, batch_reply](const ProtocolError& error) {
+    HttpReply reply =
+        batch_reply(service_.refuse_batch(*batch, error, true, Transport::Http), "");
+    reply.response.result(protocol::http_status(error.reason()));
+    return reply;
+  };
+  return work;
 }
 
 HttpReply HttpHandler::query_reply(const Shape& shape, const protocol::Call& call,

@@ -43,13 +43,17 @@ struct HttpReply {
   std::optional<protocol::ErrorReason> error;  ///< nullopt: a success
   std::string mesh;                            ///< the mesh it ran on, once known
   bool close = false;                          ///< close the connection after it
+  bool recorded = false;  ///< in the metrics already (a batch array's elements, each on its own)
 };
 
 /// Work for a compute thread: runs the request under `context` and builds its reply.
 struct HttpWork {
+  /// What it runs (an admin method: queued whatever the backlog).
   protocol::Method method = protocol::Method::ServerHealth;
   std::optional<std::int64_t> timeout_ms;  ///< as asked; Limits::effective_timeout_ms applies
   std::function<HttpReply(RequestContext& context)> run;
+  /// The reply when it cannot run (Overloaded, ShuttingDown).
+  std::function<HttpReply(const protocol::ProtocolError& error)> refuse;
 };
 
 class HttpHandler {
@@ -69,6 +73,7 @@ class HttpHandler {
   struct Shape;
   Shape shape_of(const HttpRequest& request) const;
   std::variant<HttpReply, HttpWork> route(const HttpRequest& request, const Shape& shape) const;
+  std::variant<HttpReply, HttpWork> rpc(const HttpRequest& request, const Shape& shape) const;
   HttpReply query_reply(const Shape& shape, const protocol::Call& call,
                         RequestContext& context) const;
   HttpReply rpc_reply(const Shape& shape, std::optional<protocol::Method> method,

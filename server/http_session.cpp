@@ -202,36 +202,35 @@ void HttpSession::dispatch() {
   ++timer_generation_;
   phase_ = Phase::Working;
   received_ = Clock::now();
-  auto request = std::make_shared<const HttpRequest>(parser_->release());
+  const HttpRequest request = parser_->release();
   parser_.reset();
-  std::variant<HttpReply, HttpWork> handled = env_.handler.handle(*request);
+  std::variant<HttpReply, HttpWork> handled = env_.handler.handle(request);
   if (auto* reply = std::get_if<HttpReply>(&handled)) {
     send(std::move(*reply));
     return;
   }
   HttpWork work = std::move(std::get<HttpWork>(handled));
   if (env_.state.draining.load()) {
-    send(env_.handler.refuse(*request, work.method,
-                             ProtocolError(ErrorReason::ShuttingDown,
-                                           "the server is shutting down; retry on another "
-                                           "instance")));
+    send(work.refuse(ProtocolError(ErrorReason::ShuttingDown,
+                                   "the server is shutting down; retry on another instance")));
     return;
   }
-  run(std::move(work), std::move(request));
+  run(std::move(work));
 }
 
-void HttpSession::run(HttpWork work, std::shared_ptr<const HttpRequest> request) {
+void HttpSession::run(HttpWork work) {
   cancelled_ = std::make_shared<std::atomic<bool>>(false);
   const auto deadline =
       received_ +
       std::chrono::milliseconds(env_.config.limits.effective_timeout_ms(work.timeout_ms));
   const protocol::Method method = work.method;
-  auto task = [self = shared_from_this(), work = std::move(work), cancelled = cancelled_,
+  auto refuse = std::move(work.refuse);
+  auto task = [self = shared_from_this(), run = std::move(work.run), cancelled = cancelled_,
                deadline] {
     RequestContext context;
     context.interrupt.deadline = deadline;
     context.interrupt.cancelled = cancelled.get();
-    HttpReply reply = work.run(context);
+    HttpReply reply = run(context);
     asio::post(self->socket_.get_executor(),
                [self, reply = std::move(reply)]() mutable {
                  self->env_.metrics.in_flight.fetch_sub(1, std::memory_order_relaxed);
@@ -251,7 +250,7 @@ void HttpSession::run(HttpWork work, std::shared_ptr<const HttpRequest> request)
                                                      std::to_string(env_.pool.waiting()) +
                                                      " waiting)");
     error.set_retry_after_ms(env_.pool.retry_after_ms());
-    send(env_.handler.refuse(*request, method, error));
+    send(refuse(error));
   }
 }
 
@@ -260,7 +259,9 @@ void HttpSession::send(HttpReply reply) {
   const double seconds =
       phase_ == Phase::Working ? std::chrono::duration<double>(Clock::now() - received_).count()
                                : 0.0;
-  env_.metrics.record_request(Transport::Http, reply.method, reply.error, seconds);
+  if (!reply.recorded) {
+    env_.metrics.record_request(Transport::Http, reply.method, reply.error, seconds);
+  }
   if (spdlog::should_log(spdlog::level::debug) ||
       (reply.error && *reply.error == ErrorReason::Internal)) {
     nlohmann::ordered_json fields;

@@ -61,7 +61,7 @@ class HttpSession : public Session, public std::enable_shared_from_this<HttpSess
   void on_body(boost::system::error_code ec);
   void on_read_error(boost::system::error_code ec);
   void dispatch();
-  void run(HttpWork work, std::shared_ptr<const HttpRequest> request);
+  void run(HttpWork work);
   void send(HttpReply reply);
   void on_write(boost::system::error_code ec, std::size_t bytes, bool keep_alive);
   void arm_timer(std::chrono::milliseconds timeout);

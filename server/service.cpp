@@ -624,6 +624,129 @@ json Service::batch(const protocol::BatchParams& params, RequestContext& context
   return result;
 }
 
+// ---- JSON-RPC 2.0 batch arrays ----
+
+namespace {
+
+/// What answer() replies when even its error reply cannot be built.
+constexpr std::string_view kOutOfMemoryReply =
+    "{\"jsonrpc\":\"2.0\",\"id\":null,\"error\":{\"code\":-32603,\"data\":{"
+    "\"reason\":\"Internal\",\"retryable\":true},\"message\":\"out of memory\"}}\n";
+
+const std::optional<protocol::RequestId>& id_of(
+    const std::variant<protocol::Call, protocol::Rejection>& element) {
+  if (const auto* call = std::get_if<protocol::Call>(&element)) return call->id;
+  return std::get<protocol::Rejection>(element).id;
+}
+
+/// The elements of `batch` answered in order into one reply line: an element that is no valid
+/// request with its own error, a call with `answer_call`, except the calls refused before
+/// server.auth and server.auth itself. Every element is recorded in `metrics`.
+template <class AnswerCall>
+Answer reply_to_batch(const protocol::BatchCall& batch, bool authenticated, Transport transport,
+                      Metrics& metrics, const protocol::Limits& limits, const ServerState& state,
+                      AnswerCall&& answer_call) noexcept {
+  using Clock = std::chrono::steady_clock;
+  try {
+    Answer reply;
+    std::vector<std::string> lines;
+    lines.reserve(batch.elements.size());
+    std::size_t reply_bytes = 2;  // the brackets
+    for (const auto& element : batch.elements) {
+      const auto started = Clock::now();
+      std::optional<protocol::Method> method;
+      Answer answer;
+      if (const auto* rejection = std::get_if<protocol::Rejection>(&element)) {
+        method = protocol::method_from_name(rejection->method_name);
+        // Before server.auth, even a malformed query learns nothing but Unauthorized.
+        const bool refused_before_auth =
+            !authenticated && method && !protocol::allowed_before_auth(*method);
+        const ProtocolError error =
+            refused_before_auth ? Service::unauthenticated_error(*method) : rejection->error;
+        answer.error = error.reason();
+        if (rejection->id) answer.line = protocol::serialize_error(*rejection->id, error);
+      } else {
+        const protocol::Call& call = std::get<protocol::Call>(element);
+        method = call.method();
+        if (!authenticated && !protocol::allowed_before_auth(*method)) {
+          answer = Service::refuse(call, Service::unauthenticated_error(*method));
+        } else if (*method == protocol::Method::ServerAuth) {
+          answer = Service::refuse(
+              call, ProtocolError(ErrorReason::InvalidRequest,
+                                  "server.auth must be sent alone, not in a batch array"));
+        } else {
+          answer = answer_call(call);
+        }
+      }
+      metrics.record_request(transport, method, answer.error,
+                             std::chrono::duration<double>(Clock::now() - started).count());
+      if (answer.error && (!reply.error || *answer.error == ErrorReason::Internal)) {
+        reply.error = answer.error;
+      }
+      if (answer.line.empty()) continue;
+      if (reply_bytes + answer.line.size() > limits.max_output_bytes) {
+        // Each reply fits on its own; together they are bounded like one reply.
+        answer.line = protocol::serialize_error(
+            id_of(element).value_or(protocol::RequestId()),
+            ProtocolError(ErrorReason::TooLarge,
+                          "the replies of this batch array take more than max_output_bytes (" +
+                              std::to_string(limits.max_output_bytes) + ")"));
+        if (!reply.error) reply.error = ErrorReason::TooLarge;
+      }
+      reply_bytes += answer.line.size();
+      lines.push_back(std::move(answer.line));
+    }
+    reply.line = protocol::serialize_batch_reply(lines);
+    return reply;
+  } catch (...) {
+    // The boundary of the array: what fails outside its elements' own boundaries (memory for
+    // the replies) is one error object, id null.
+    const ProtocolError error = current_error(state.draining.load());
+    Answer failed;
+    failed.error = error.reason();
+    try {
+      failed.line = protocol::serialize_error(protocol::RequestId(), error);
+    } catch (...) {
+      failed.line = kOutOfMemoryReply;
+    }
+    return failed;
+  }
+}
+
+}  // namespace
+
+Answer Service::answer_batch(const protocol::BatchCall& batch, RequestContext& context,
+                             bool authenticated, Transport transport) const noexcept {
+  return reply_to_batch(
+      batch, authenticated, transport, metrics_, config_.limits, state_,
+      [&](const protocol::Call& call) {
+        RequestContext element;
+        element.interrupt = context.interrupt;
+        if (call.timeout_ms) {
+          const auto own =
+              std::chrono::steady_clock::now() +
+              std::chrono::milliseconds(config_.limits.effective_timeout_ms(call.timeout_ms));
+          if (own < element.interrupt.deadline) element.interrupt.deadline = own;
+        }
+        Answer reply = answer(call, element);
+        if (context.mesh.empty()) context.mesh = std::move(element.mesh);
+        return reply;
+      });
+}
+
+Answer Service::refuse_batch(const protocol::BatchCall& batch, const ProtocolError& error,
+                             bool authenticated, Transport transport) const noexcept {
+  return reply_to_batch(batch, authenticated, transport, metrics_, config_.limits, state_,
+                        [&](const protocol::Call& call) { return refuse(call, error); });
+}
+
+ProtocolError Service::unauthenticated_error(protocol::Method method) {
+  return ProtocolError(ErrorReason::Unauthorized,
+                       "this server needs server.auth with its query token before " +
+                           std::string(protocol::method_name(method)) +
+                           " (server.health says auth_required)");
+}
+
 std::vector<protocol::ReloadOutcome> Service::reload(const std::optional<std::string>& mesh) const {
   std::vector<protocol::ReloadOutcome> outcomes = registry_.reload(mesh);
   for (const auto& outcome : outcomes) {

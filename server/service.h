@@ -91,6 +91,28 @@ class Service {
   /// Reopens graph files (admin.reload, SIGHUP), counting the outcomes in the metrics.
   std::vector<protocol::ReloadOutcome> reload(const std::optional<std::string>& mesh) const;
 
+  // JSON-RPC 2.0 batch arrays (protocol::decode_message): one reply line for the whole array.
+
+  /// The reply to a batch array: each element answered in order on the calling thread, under
+  /// `context`'s deadline and cancel flag (each element's own timeout_ms may shorten it);
+  /// elements other than server.health and server.auth are refused Unauthorized when
+  /// `authenticated` is false. server.auth is refused InvalidRequest: it must be sent alone, as
+  /// its effect on the connection would be ambiguous in an array. Each element is recorded in
+  /// the metrics as its own request; replies beyond max_output_bytes (all together) become
+  /// TooLarge errors. Answer::line is the array line, or empty when nothing is owed;
+  /// Answer::error is Internal if an element failed so, else the first failure, if any.
+  /// `transport` labels the metrics.
+  Answer answer_batch(const protocol::BatchCall& batch, RequestContext& context,
+                      bool authenticated, Transport transport) const noexcept;
+  /// The reply to a batch array that could not be run (Overloaded, ShuttingDown): `error` for
+  /// each call, except that calls refused before server.auth (see answer_batch) are
+  /// Unauthorized and elements that are no valid request keep their own error. Recorded in the
+  /// metrics like answer_batch().
+  Answer refuse_batch(const protocol::BatchCall& batch, const protocol::ProtocolError& error,
+                      bool authenticated, Transport transport) const noexcept;
+  /// The refusal of `method` on a connection that has not passed server.auth.
+  static protocol::ProtocolError unauthenticated_error(protocol::Method method);
+
  private:
   nlohmann::json execute(const protocol::Params& params, RequestContext& context) const;
   nlohmann::json batch(const protocol::BatchParams& params, RequestContext& context) const;

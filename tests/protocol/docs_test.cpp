@@ -1,5 +1,6 @@
-// docs/protocol.md stays true: its examples go through the real parser and serializer, and its
-// tables list every reason, method and limit with the values of the code.
+// docs/protocol.md stays true: its examples go through the real parser and serializer (batch
+// arrays element by element), and its tables list every reason, method and limit with the
+// values of the code.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -66,17 +67,25 @@ TEST(ProtocolDocs, EveryExampleGoesThroughTheRealCode) {
     const ExampleLine& line = lines[i];
     SCOPED_TRACE("docs/protocol.md:" + std::to_string(line.line_number));
     if (!line.request) {
-      // Every reply parses, and errors carry the code and retryability of their reason.
-      const Reply reply = parse_reply(line.text);
-      if (reply.error) {
-        const std::optional<ErrorReason> reason = reason_from_name(reply.error->reason);
-        ASSERT_TRUE(reason) << reply.error->reason;
-        EXPECT_EQ(reply.error->code, error_code_of(*reason));
-        EXPECT_EQ(reply.error->retryable, is_retryable(*reason));
+      // Every reply parses (each of an array, the reply to a batch array), and errors carry the
+      // code and retryability of their reason.
+      std::vector<std::string> reply_texts = {line.text};
+      if (line.text.starts_with("[")) {
+        reply_texts.clear();
+        for (const json& element : json::parse(line.text)) reply_texts.push_back(element.dump());
+      }
+      for (const std::string& text : reply_texts) {
+        const Reply reply = parse_reply(text);
+        if (reply.error) {
+          const std::optional<ErrorReason> reason = reason_from_name(reply.error->reason);
+          ASSERT_TRUE(reason) << reply.error->reason;
+          EXPECT_EQ(reply.error->code, error_code_of(*reason));
+          EXPECT_EQ(reply.error->retryable, is_retryable(*reason));
+        }
       }
       continue;
     }
-    auto decoded = decode_request(line.text);
+    auto decoded = decode_message(line.text);
     const bool has_reply = i + 1 < lines.size() && !lines[i + 1].request;
     ASSERT_TRUE(has_reply) << "a request without its reply: " << line.text;
     const std::string& reply_text = lines[i + 1].text;
@@ -84,6 +93,29 @@ TEST(ProtocolDocs, EveryExampleGoesThroughTheRealCode) {
       // A refused request: the reply shown is exactly the one produced.
       ASSERT_TRUE(rejection->reply_line());
       EXPECT_EQ(*rejection->reply_line(), reply_text + "\n");
+      continue;
+    }
+    if (const auto* batch = std::get_if<BatchCall>(&decoded)) {
+      // A batch array: one reply per element owed one, in order; refusals as produced.
+      const json replies = json::parse(reply_text);
+      ASSERT_TRUE(replies.is_array()) << reply_text;
+      std::size_t next = 0;
+      for (const auto& element : batch->elements) {
+        if (const auto* refused = std::get_if<Rejection>(&element)) {
+          if (!refused->reply_line()) continue;
+          ASSERT_LT(next, replies.size());
+          EXPECT_EQ(json::parse(*refused->reply_line()), replies[next++]);
+          continue;
+        }
+        const Call& call = std::get<Call>(element);
+        methods_shown.insert(call.method());
+        if (call.is_notification()) continue;
+        ASSERT_LT(next, replies.size());
+        const Reply reply = parse_reply(replies[next++].dump());
+        EXPECT_EQ(reply.id, *call.id);
+        EXPECT_TRUE(reply.result) << "an accepted request is shown with its result";
+      }
+      EXPECT_EQ(next, replies.size()) << "a reply for every element owed one, no more";
       continue;
     }
     const Call& call = std::get<Call>(decoded);

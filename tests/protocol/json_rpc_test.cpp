@@ -161,9 +161,10 @@ TEST(Envelope, NestingDeeperThanTheLimitIsTooLarge) {
 }
 
 TEST(Envelope, JsonThatIsNotARequestIsAnInvalidRequest) {
+  // A batch array is not one request (parse_message reads those).
   expect_refused(R"([{"jsonrpc":"2.0","id":1,"method":"m"}])", ErrorReason::InvalidRequest, -32600,
-                 "null", "use the \"batch\" method");
-  expect_refused("[]", ErrorReason::InvalidRequest, -32600, "null", "batch arrays");
+                 "null", "expected one request object, not a batch array");
+  expect_refused("[]", ErrorReason::InvalidRequest, -32600, "null", "not a batch array");
   expect_refused("42", ErrorReason::InvalidRequest, -32600, "null",
                  "a request must be a JSON object, not a number");
   expect_refused(R"("geodesic.distance")", ErrorReason::InvalidRequest, -32600, "null",
@@ -191,6 +192,65 @@ TEST(Envelope, JsonThatIsNotARequestIsAnInvalidRequest) {
   expect_refused(R"({"jsonrpc":"2.0","id":"a","method":"m","deadline":5})",
                  ErrorReason::InvalidRequest, -32600, R"("a")",
                  "unknown member \"deadline\" (a request has jsonrpc, id, method, params)");
+}
+
+TEST(Message, ABatchArrayIsParsedElementByElement) {
+  auto parsed = parse_message(
+      R"([{"jsonrpc":"2.0","id":1.50,"method":"a"},)"
+      R"({"jsonrpc":"2.0","method":"b","params":{"x":1}},7,)"
+      R"({"jsonrpc":"2.0","id":"s","method":"c","extra":0},)"
+      R"({"jsonrpc":"2.0","id":2.5E-3,"method":"d"}])");
+  ASSERT_TRUE(std::holds_alternative<EnvelopeBatch>(parsed));
+  const auto& elements = std::get<EnvelopeBatch>(parsed).elements;
+  ASSERT_EQ(elements.size(), 5u);
+  // Fractional ids of elements are echoed as sent, like the id of a single request.
+  EXPECT_EQ(std::get<Envelope>(elements[0]).id->json_text(), "1.50");
+  EXPECT_EQ(std::get<Envelope>(elements[0]).method, "a");
+  EXPECT_TRUE(std::get<Envelope>(elements[1]).is_notification());
+  EXPECT_EQ(std::get<Envelope>(elements[1]).params, json({{"x", 1}}));
+  const auto& not_an_object = std::get<EnvelopeError>(elements[2]);
+  EXPECT_EQ(not_an_object.id.json_text(), "null");
+  EXPECT_EQ(not_an_object.error.reason(), ErrorReason::InvalidRequest);
+  EXPECT_STREQ(not_an_object.error.what(), "a request must be a JSON object, not a number");
+  const auto& unknown_member = std::get<EnvelopeError>(elements[3]);
+  EXPECT_EQ(unknown_member.id.json_text(), "\"s\"");
+  EXPECT_NE(std::string(unknown_member.error.what()).find("unknown member \"extra\""),
+            std::string::npos);
+  EXPECT_EQ(std::get<Envelope>(elements[4]).id->json_text(), "2.5E-3");
+}
+
+TEST(Message, ASingleObjectIsParsedAsByParseEnvelope) {
+  auto parsed = parse_message(R"({"jsonrpc":"2.0","id":1.50,"method":"m"})");
+  ASSERT_TRUE(std::holds_alternative<Envelope>(parsed));
+  EXPECT_EQ(std::get<Envelope>(parsed).id->json_text(), "1.50");
+  auto refused = parse_message(R"({"jsonrpc":"2.0","id":3})");
+  ASSERT_TRUE(std::holds_alternative<EnvelopeError>(refused));
+  EXPECT_EQ(std::get<EnvelopeError>(refused).id.json_text(), "3");
+  EXPECT_STREQ(std::get<EnvelopeError>(refused).error.what(), "missing member \"method\"");
+}
+
+TEST(Message, EmptyBrokenOrTooDeepArraysAreOneError) {
+  const auto error_of = [](std::string_view text, std::size_t depth = kDefaultMaxNestingDepth) {
+    auto parsed = parse_message(text, depth);
+    if (auto* error = std::get_if<EnvelopeError>(&parsed)) return *error;
+    ADD_FAILURE() << "not refused: " << text;
+    return EnvelopeError{RequestId(), ProtocolError(ErrorReason::Internal, "not refused")};
+  };
+  const EnvelopeError empty = error_of(" [ ] ");
+  EXPECT_EQ(empty.error.reason(), ErrorReason::InvalidRequest);
+  EXPECT_EQ(empty.id.json_text(), "null");
+  EXPECT_STREQ(empty.error.what(), "empty batch array: a batch array needs at least one request");
+  const EnvelopeError broken = error_of(R"([{"jsonrpc":"2.0","id":1,"method":"m"},)");
+  EXPECT_EQ(broken.error.reason(), ErrorReason::ParseError);
+  EXPECT_EQ(broken.id.json_text(), "null");
+  // The array is level 1: params of an element are level 3.
+  const std::string element = R"({"jsonrpc":"2.0","id":1,"method":"m","params":{}})";
+  EXPECT_TRUE(std::holds_alternative<EnvelopeBatch>(parse_message("[" + element + "]", 3)));
+  const EnvelopeError deep = error_of("[" + element + "]", 2);
+  EXPECT_EQ(deep.error.reason(), ErrorReason::TooLarge);
+  EXPECT_STREQ(deep.error.what(), "JSON nested deeper than the limit of 2 levels");
+  EXPECT_EQ(error_of("[" + element + "," + element + "," + element + ",[[[]]]]", 3).error.reason(),
+            ErrorReason::TooLarge);
 }
 
 TEST(Envelope, DuplicateKeysAreRefusedAnywhere) {

@@ -272,6 +272,28 @@ TEST_F(HttpTest, RpcTakesJsonRpcRequests) {
   EXPECT_TRUE(notification.body.empty());
   EXPECT_EQ(http.request("POST", "/v1/rpc", "{nope").json_body()["error"]["data"]["reason"],
             "ParseError");
+
+  // Batch arrays, as JSON-RPC 2.0 says: an array of replies, none for notifications.
+  HttpResponse batch = http.request(
+      "POST", "/v1/rpc",
+      R"([{"jsonrpc":"2.0","id":1,"method":"geodesic.distance","params":{"mesh":"spot","source":"v:0","target":"v:100"}},)"
+      R"({"jsonrpc":"2.0","method":"geodesic.distance","params":{"mesh":"spot","source":"v:0","target":"v:5"}},)"
+      R"(7,{"jsonrpc":"2.0","id":"m","method":"mesh.list"}])");
+  ASSERT_EQ(batch.status, 200) << batch.body;
+  const json replies = batch.json_body();
+  ASSERT_TRUE(replies.is_array());
+  ASSERT_EQ(replies.size(), 3u);
+  EXPECT_EQ(replies[0]["id"], 1);
+  EXPECT_EQ(replies[0]["result"]["distance"], ok.json_body()["result"]["distance"]);
+  EXPECT_EQ(replies[1]["error"]["data"]["reason"], "InvalidRequest");
+  EXPECT_TRUE(replies[1]["id"].is_null());
+  EXPECT_EQ(replies[2]["id"], "m");
+  EXPECT_EQ(http.request("POST", "/v1/rpc", R"([{"jsonrpc":"2.0","method":"server.health"}])")
+                .status,
+            204);
+  HttpResponse empty = http.request("POST", "/v1/rpc", "[]");
+  EXPECT_EQ(empty.status, 400);
+  EXPECT_EQ(empty.json_body()["error"]["data"]["reason"], "InvalidRequest");
 }
 
 TEST_F(HttpTest, EveryBadRequestGetsItsStatusAndTheConnectionKeepsWorking) {

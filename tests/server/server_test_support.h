@@ -168,6 +168,14 @@ class Client {
     fd_ = -1;
   }
   void shutdown_write() { ::shutdown(fd_, SHUT_WR); }
+  /// Closes with a reset (SO_LINGER 0) rather than a FIN, which the server takes for a
+  /// half-close: the server sees the connection fail at once.
+  void reset() {
+    if (fd_ < 0) return;
+    linger abort{1, 0};
+    ::setsockopt(fd_, SOL_SOCKET, SO_LINGER, &abort, sizeof abort);
+    close();
+  }
 
   bool send_raw(std::string_view bytes) {
     while (!bytes.empty()) {
