@@ -522,6 +522,9 @@ class HttpClient(Client):
         self, reply: _Reply, responses: list[Any], chunk: list[tuple[Pending, int, bytes]]
     ) -> None:
         by_id = {rid: pending for pending, rid, _ in chunk}
+        # An array refused whole (429 Overloaded, 503 ShuttingDown: every element the same
+        # error) has a status and Retry-After of its own; one answered has 200 for all.
+        whole = reply.status != 200
         anonymous: list[Mapping[str, Any]] = []  # errors with id null: matched in order
         for response in responses:
             if not isinstance(response, dict) or response.get("jsonrpc") != "2.0":
@@ -532,10 +535,10 @@ class HttpClient(Client):
                 continue
             if isinstance(rid, bool) or rid not in by_id:
                 raise GeoproxProtocolError(f"response to an unknown request id {rid!r}")
-            self._resolve(reply, by_id.pop(rid), response, whole=False)
+            self._resolve(reply, by_id.pop(rid), response, whole=whole)
         for pending in by_id.values():
             if anonymous:
-                self._resolve(reply, pending, anonymous.pop(0), whole=False)
+                self._resolve(reply, pending, anonymous.pop(0), whole=whole)
             else:
                 pending._resolve(
                     error=GeoproxProtocolError(

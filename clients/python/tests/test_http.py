@@ -312,10 +312,11 @@ class RestartTest(unittest.TestCase):
     def test_daemon_restarts_under_a_client(self) -> None:
         first = start("restart-1")
         port = first.http_port
-        client = first.client("http", timeout=30)
         second: Optional[Daemon] = None
         third: Optional[Daemon] = None
+        client: Optional[geoprox.Client] = None
         try:
+            client = first.client("http", timeout=30)
             expected = client.distance("spot", "v:0", "v:1234")["distance"]
             old_socket = client.socket
             self.assertEqual(first.stop(), 0)
@@ -341,7 +342,8 @@ class RestartTest(unittest.TestCase):
             with self.assertRaises(GeoproxConnectionError):
                 client.health()
         finally:
-            client.close()
+            if client is not None:
+                client.close()
             for daemon in (first, second, third):
                 if daemon is not None:
                     daemon.stop()
@@ -576,6 +578,23 @@ class FakeServerTest(unittest.TestCase):
             self.assertTrue(all(r[2]["content-type"] == "application/json"
                                 for r in server.requests))
             self.assertEqual(server.connections, 1)
+
+    def test_batch_array_refused_whole(self) -> None:
+        # Overloaded: every element gets the error, and the array the status and Retry-After.
+        def handle(connection: socket.socket, read_request: Callable[[], Any]) -> None:
+            while (request := read_request()) is not None:
+                error = {"code": -32030, "message": "compute queue full",
+                         "data": {"reason": "Overloaded", "retryable": True}}
+                respond(connection, 429,
+                        [{"jsonrpc": "2.0", "id": b["id"], "error": error} for b in request[3]],
+                        Retry_After="1")
+
+        with FakeHttpServer(handle) as server, geoprox.Client(server.url, timeout=10) as client:
+            outcomes = client.call_many([("a", {}), ("b", {})], return_exceptions=True)
+        for error in outcomes:
+            self.assertIsInstance(error, ServerError)
+            self.assertEqual((error.reason, error.retryable, error.retry_after_ms,
+                              error.http_status), (Reason.OVERLOADED, True, 1000, 429))
 
     def test_server_without_batch_arrays_gets_one_request_at_a_time(self) -> None:
         refusal = {"jsonrpc": "2.0", "id": None, "error": {
