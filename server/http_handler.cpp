@@ -113,6 +113,7 @@ struct HttpHandler::Shape {
   bool keep_alive = true;
   bool head = false;
   bool gzip = false;
+  /// A token was given, or the request is past the query token: Unauthorized is then 403.
   bool token_sent = false;
   std::string cors_origin;  ///< Access-Control-Allow-Origin to send; empty: no CORS headers
   HttpFormat format = HttpFormat::Json;
@@ -237,6 +238,8 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
           std::nullopt);
     }
   }
+  // Past the query token: any later Unauthorized (an admin token in the params) is 403.
+  shape.token_sent = true;
 
   std::vector<std::pair<std::string, std::string>> parameters =
       protocol::parse_query_string(query);
@@ -607,6 +610,9 @@ HttpReply HttpHandler::finish(const Shape& shape, HttpReply reply) const {
   }
   response.keep_alive(shape.keep_alive && !reply.close);
   response.prepare_payload();
+  if (response.result() == http::status::no_content) {
+    response.erase(http::field::content_length);  // RFC 9110: never on a 204
+  }
   if (shape.head) {
     // HEAD: the headers of the GET, Content-Length included, without the body.
     const std::size_t length = response.body().size();

@@ -76,7 +76,8 @@ class HttpClient {
       const auto colon = line->find(':');
       r.headers[lower(line->substr(0, colon))] = line->substr(colon + 2);
     }
-    const std::size_t length = head ? 0 : std::stoul(r.header("content-length"));
+    const std::string length_header = r.header("content-length");
+    const std::size_t length = head || length_header.empty() ? 0 : std::stoul(length_header);
     r.body = client_.read_bytes(length);
     return r;
   }
@@ -270,6 +271,7 @@ TEST_F(HttpTest, RpcTakesJsonRpcRequests) {
       "POST", "/v1/rpc", R"({"jsonrpc":"2.0","method":"server.health"})");
   EXPECT_EQ(notification.status, 204);
   EXPECT_TRUE(notification.body.empty());
+  EXPECT_EQ(notification.header("content-length"), "");  // RFC 9110: none on a 204
   EXPECT_EQ(http.request("POST", "/v1/rpc", "{nope").json_body()["error"]["data"]["reason"],
             "ParseError");
 
@@ -470,6 +472,13 @@ TEST(HttpAccess, TheQueryTokenIsABearerTokenAndTheHealthChecksStayOpen) {
             401);
   EXPECT_EQ(http.request("GET", "/readyz").status, 200);
   EXPECT_EQ(http.request("GET", "/healthz").status, 200);
+  // Past the query token, a wrong admin token is forbidden, not unauthenticated.
+  const HttpResponse admin = http.request(
+      "POST", "/v1/rpc",
+      R"({"jsonrpc":"2.0","id":1,"method":"admin.reload","params":{"token":"x"}})",
+      {"Authorization: Bearer s3cret"});
+  EXPECT_EQ(admin.status, 403);
+  EXPECT_EQ(admin.json_body()["error"]["data"]["reason"], "Unauthorized");
 }
 
 TEST(HttpLifecycle, DrainAnswersTheRequestBeingReadAndClosesIdleConnections) {
