@@ -73,14 +73,9 @@ void AdminSession::route(std::string_view path, bool with_body) {
   } else if (path == "/healthz") {
     respond(http::status::ok, "text/plain", "ok\n", with_body);
   } else if (path == "/readyz") {
-    const protocol::HealthResult health = service_.health();
-    if (health.status == protocol::HealthStatus::Ok) {
-      respond(http::status::ok, "text/plain", "ready\n", with_body);
-    } else {
-      respond(http::status::service_unavailable, "text/plain",
-              "not ready: " + std::string(protocol::health_status_name(health.status)) + "\n",
-              with_body);
-    }
+    auto [ready, body] = service_.readiness();
+    respond(ready ? http::status::ok : http::status::service_unavailable, "text/plain",
+            std::move(body), with_body);
   } else {
     respond(http::status::not_found, "text/plain",
             "unknown path (try /metrics, /healthz, /readyz)\n", with_body);

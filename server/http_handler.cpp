@@ -204,14 +204,9 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
     if (route.kind == HttpRoute::Kind::Healthz) {
       reply.response.body() = "ok\n";
     } else {
-      const protocol::HealthResult health = service_.health();
-      if (health.status == protocol::HealthStatus::Ok) {
-        reply.response.body() = "ready\n";
-      } else {
-        reply.response.result(http::status::service_unavailable);
-        reply.response.body() =
-            "not ready: " + std::string(protocol::health_status_name(health.status)) + "\n";
-      }
+      auto [ready, body] = service_.readiness();
+      if (!ready) reply.response.result(http::status::service_unavailable);
+      reply.response.body() = std::move(body);
     }
     return finish(shape, std::move(reply));
   }

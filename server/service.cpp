@@ -593,6 +593,18 @@ json Service::mesh_info(const protocol::MeshInfoParams& p, RequestContext& conte
   return r;
 }
 
+RequestContext Service::element_context(const RequestContext& outer,
+                                        std::optional<std::int64_t> timeout_ms) const {
+  RequestContext element;
+  element.interrupt = outer.interrupt;
+  if (timeout_ms) {
+    const auto own = std::chrono::steady_clock::now() +
+                     std::chrono::milliseconds(config_.limits.effective_timeout_ms(timeout_ms));
+    if (own < element.interrupt.deadline) element.interrupt.deadline = own;
+  }
+  return element;
+}
+
 json Service::batch(const protocol::BatchParams& params, RequestContext& context) const {
   protocol::BatchResult result;
   result.results.reserve(params.requests.size());
@@ -602,14 +614,7 @@ json Service::batch(const protocol::BatchParams& params, RequestContext& context
       result.results.emplace_back(*entry.error);
       continue;
     }
-    RequestContext sub;
-    sub.interrupt = context.interrupt;
-    if (entry.timeout_ms) {
-      const auto own =
-          std::chrono::steady_clock::now() +
-          std::chrono::milliseconds(config_.limits.effective_timeout_ms(entry.timeout_ms));
-      if (own < sub.interrupt.deadline) sub.interrupt.deadline = own;
-    }
+    RequestContext sub = element_context(context, entry.timeout_ms);
     try {
       if (!entry.params) throw ProtocolError(ErrorReason::Internal, "batch entry without params");
       result.results.emplace_back(execute(*entry.params, sub));
@@ -720,14 +725,7 @@ Answer Service::answer_batch(const protocol::BatchCall& batch, RequestContext& c
   return reply_to_batch(
       batch, authenticated, transport, metrics_, config_.limits, state_,
       [&](const protocol::Call& call) {
-        RequestContext element;
-        element.interrupt = context.interrupt;
-        if (call.timeout_ms) {
-          const auto own =
-              std::chrono::steady_clock::now() +
-              std::chrono::milliseconds(config_.limits.effective_timeout_ms(call.timeout_ms));
-          if (own < element.interrupt.deadline) element.interrupt.deadline = own;
-        }
+        RequestContext element = element_context(context, call.timeout_ms);
         Answer reply = answer(call, element);
         if (context.mesh.empty()) context.mesh = std::move(element.mesh);
         return reply;
@@ -795,6 +793,12 @@ protocol::HealthResult Service::health() const {
 }
 
 bool Service::ready() const { return health().status == protocol::HealthStatus::Ok; }
+
+std::pair<bool, std::string> Service::readiness() const {
+  const protocol::HealthStatus status = health().status;
+  if (status == protocol::HealthStatus::Ok) return {true, "ready\n"};
+  return {false, "not ready: " + std::string(protocol::health_status_name(status)) + "\n"};
+}
 
 std::string Service::metrics_text() const {
   std::string out;

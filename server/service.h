@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/base/errors.h"
@@ -88,6 +89,9 @@ class Service {
   std::string metrics_text() const;
   protocol::HealthResult health() const;
   bool ready() const;
+  /// The body of /readyz ("ready\n", "not ready: starting\n" or "not ready: draining\n")
+  /// and whether it is ready (200, else 503).
+  std::pair<bool, std::string> readiness() const;
   /// Reopens graph files (admin.reload, SIGHUP), counting the outcomes in the metrics.
   std::vector<protocol::ReloadOutcome> reload(const std::optional<std::string>& mesh) const;
 
@@ -116,6 +120,10 @@ class Service {
  private:
   nlohmann::json execute(const protocol::Params& params, RequestContext& context) const;
   nlohmann::json batch(const protocol::BatchParams& params, RequestContext& context) const;
+  /// The context of one element of a batch: the batch's interrupt, its deadline shortened by
+  /// the element's own timeout_ms when that ends first.
+  RequestContext element_context(const RequestContext& outer,
+                                 std::optional<std::int64_t> timeout_ms) const;
   nlohmann::json mesh_info(const protocol::MeshInfoParams& params, RequestContext& context) const;
   void check_admin_token(const std::string& token) const;
 
