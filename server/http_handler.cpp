@@ -236,8 +236,7 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
   // Past the query token: any later Unauthorized (an admin token in the params) is 403.
   shape.token_sent = true;
 
-  std::vector<std::pair<std::string, std::string>> parameters =
-      protocol::parse_query_string(query);
+  QueryParameters parameters = protocol::parse_query_string(query);
   // `array` and `dtype` shape binary responses; the rest are the method's params.
   std::string array_name;
   for (auto it = parameters.begin(); it != parameters.end();) {
@@ -291,103 +290,113 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
 
   switch (route.kind) {
     case HttpRoute::Kind::MeshList:
-    case HttpRoute::Kind::MeshInfo: {
-      protocol::Call call;
-      if (route.kind == HttpRoute::Kind::MeshList) {
-        call.params = protocol::MeshListParams{};
-      } else {
-        call.params = protocol::MeshInfoParams{route.mesh};
-      }
-      RequestContext context;
-      Outcome outcome = service_.evaluate(call, context);
-      if (outcome.error) return error_reply(shape, *outcome.error, call.method());
-      HttpReply reply;
-      reply.method = call.method();
-      reply.mesh = context.mesh;
-      reply.response.set(http::field::content_type, kJsonType);
-      reply.response.body() = protocol::dump_one_line(outcome.result);
-      return finish(shape, std::move(reply));
-    }
-    case HttpRoute::Kind::Geometry: {
-      HttpWork work;
-      work.method = protocol::Method::MeshInfo;
-      work.refuse = [this, shape](const ProtocolError& error) {
-        return error_reply(shape, error, protocol::Method::MeshInfo);
-      };
-      work.run = [this, shape, mesh = route.mesh](RequestContext& context) {
-        HttpReply reply;
-        reply.method = protocol::Method::MeshInfo;
-        try {
-          MeshGeometry g = service_.geometry(mesh, context);
-          reply.mesh = mesh;
-          reply.response.set("X-Geoprox-Mesh-Version", g.mesh_version);
-          if (shape.format == HttpFormat::Json) {
-            json body = {{"mesh", g.mesh},
-                         {"mesh_version", g.mesh_version},
-                         {"vertices", g.positions.size() / 3},
-                         {"faces", g.triangles.size() / 3},
-                         {"positions", std::move(g.positions)},
-                         {"triangles", std::move(g.triangles)}};
-            reply.response.set(http::field::content_type, kJsonType);
-            reply.response.body() = protocol::dump_one_line(body);
-          } else if (shape.array == ArrayChoice::Positions) {
-            const std::size_t n = g.positions.size() / 3;
-            set_binary(reply, shape, protocol::float_array(g.positions, {n, 3}, shape.dtype));
-          } else {
-            const std::size_t m = g.triangles.size() / 3;
-            set_binary(reply, shape, protocol::uint32_array(g.triangles, {m, 3}));
-          }
-          return finish(shape, std::move(reply));
-        } catch (...) {
-          return error_reply(shape, current_error(false), protocol::Method::MeshInfo);
-        }
-      };
-      return work;
-    }
-    case HttpRoute::Kind::Query: {
-      const protocol::Method method = *route.method;
-      json params;
-      if (verb == http::verb::post) {
-        params = protocol::parse_json_text(request.body(), config_.limits.max_nesting_depth);
-        if (!params.is_object()) {
-          throw ProtocolError(ErrorReason::InvalidParams,
-                              "the body must be a JSON object of params, not " +
-                                  std::string(params.is_array() ? "an array" : "a scalar"));
-        }
-        if (params.contains("mesh")) {
-          throw ProtocolError(ErrorReason::InvalidParams,
-                              "params.mesh: the mesh is named by the path, not the body");
-        }
-        // Query parameters beyond array/dtype would be ignored: refuse them instead.
-        if (!parameters.empty()) {
-          throw ProtocolError(ErrorReason::InvalidParams,
-                              "query parameter " + in_quotes(parameters.front().first) +
-                                  ": a POST takes its params from the body");
-        }
-        params["mesh"] = route.mesh;
-      } else {
-        params = protocol::query_params_object(route.mesh, parameters);
-      }
-      protocol::Call call;
-      call.method_name = std::string(protocol::method_name(method));
-      call.params = protocol::parse_params(method, params, config_.limits, &call.timeout_ms);
-      HttpWork work;
-      work.method = method;
-      work.timeout_ms = call.timeout_ms;
-      work.refuse = [this, shape, method](const ProtocolError& error) {
-        return error_reply(shape, error, method);
-      };
-      work.run = [this, shape, call = std::move(call)](RequestContext& context) {
-        return query_reply(shape, call, context);
-      };
-      return work;
-    }
+    case HttpRoute::Kind::MeshInfo:
+      return mesh_reply(shape, route);
+    case HttpRoute::Kind::Geometry:
+      return geometry_work(shape, route.mesh);
+    case HttpRoute::Kind::Query:
+      return query_work(request, shape, route, parameters);
     case HttpRoute::Kind::Rpc:
       return rpc(request, shape);
     default:
       break;
   }
   throw ProtocolError(ErrorReason::Internal, "unrouted path " + in_quotes(path));
+}
+
+HttpReply HttpHandler::mesh_reply(const Shape& shape, const HttpRoute& route) const {
+  protocol::Call call;
+  if (route.kind == HttpRoute::Kind::MeshList) {
+    call.params = protocol::MeshListParams{};
+  } else {
+    call.params = protocol::MeshInfoParams{route.mesh};
+  }
+  RequestContext context;
+  Outcome outcome = service_.evaluate(call, context);
+  if (outcome.error) return error_reply(shape, *outcome.error, call.method());
+  HttpReply reply;
+  reply.method = call.method();
+  reply.mesh = context.mesh;
+  reply.response.set(http::field::content_type, kJsonType);
+  reply.response.body() = protocol::dump_one_line(outcome.result);
+  return finish(shape, std::move(reply));
+}
+
+HttpWork HttpHandler::geometry_work(const Shape& shape, const std::string& mesh_id) const {
+  HttpWork work;
+  work.method = protocol::Method::MeshInfo;
+  work.refuse = [this, shape](const ProtocolError& error) {
+    return error_reply(shape, error, protocol::Method::MeshInfo);
+  };
+  work.run = [this, shape, mesh = mesh_id](RequestContext& context) {
+    HttpReply reply;
+    reply.method = protocol::Method::MeshInfo;
+    try {
+      MeshGeometry g = service_.geometry(mesh, context);
+      reply.mesh = mesh;
+      reply.response.set("X-Geoprox-Mesh-Version", g.mesh_version);
+      if (shape.format == HttpFormat::Json) {
+        json body = {{"mesh", g.mesh},
+                     {"mesh_version", g.mesh_version},
+                     {"vertices", g.positions.size() / 3},
+                     {"faces", g.triangles.size() / 3},
+                     {"positions", std::move(g.positions)},
+                     {"triangles", std::move(g.triangles)}};
+        reply.response.set(http::field::content_type, kJsonType);
+        reply.response.body() = protocol::dump_one_line(body);
+      } else if (shape.array == ArrayChoice::Positions) {
+        const std::size_t n = g.positions.size() / 3;
+        set_binary(reply, shape, protocol::float_array(g.positions, {n, 3}, shape.dtype));
+      } else {
+        const std::size_t m = g.triangles.size() / 3;
+        set_binary(reply, shape, protocol::uint32_array(g.triangles, {m, 3}));
+      }
+      return finish(shape, std::move(reply));
+    } catch (...) {
+      return error_reply(shape, current_error(false), protocol::Method::MeshInfo);
+    }
+  };
+  return work;
+}
+
+HttpWork HttpHandler::query_work(const HttpRequest& request, const Shape& shape,
+                                 const HttpRoute& route, const QueryParameters& parameters) const {
+  const protocol::Method method = *route.method;
+  json params;
+  if (request.method() == http::verb::post) {
+    params = protocol::parse_json_text(request.body(), config_.limits.max_nesting_depth);
+    if (!params.is_object()) {
+      throw ProtocolError(ErrorReason::InvalidParams,
+                          "the body must be a JSON object of params, not " +
+                              std::string(params.is_array() ? "an array" : "a scalar"));
+    }
+    if (params.contains("mesh")) {
+      throw ProtocolError(ErrorReason::InvalidParams,
+                          "params.mesh: the mesh is named by the path, not the body");
+    }
+    // Query parameters beyond array/dtype would be ignored: refuse them instead.
+    if (!parameters.empty()) {
+      throw ProtocolError(ErrorReason::InvalidParams,
+                          "query parameter " + in_quotes(parameters.front().first) +
+                              ": a POST takes its params from the body");
+    }
+    params["mesh"] = route.mesh;
+  } else {
+    params = protocol::query_params_object(route.mesh, parameters);
+  }
+  protocol::Call call;
+  call.method_name = std::string(protocol::method_name(method));
+  call.params = protocol::parse_params(method, params, config_.limits, &call.timeout_ms);
+  HttpWork work;
+  work.method = method;
+  work.timeout_ms = call.timeout_ms;
+  work.refuse = [this, shape, method](const ProtocolError& error) {
+    return error_reply(shape, error, method);
+  };
+  work.run = [this, shape, call = std::move(call)](RequestContext& context) {
+    return query_reply(shape, call, context);
+  };
+  return work;
 }
 
 std::variant<HttpReply, HttpWork> HttpHandler::rpc(const HttpRequest& request,

@@ -17,7 +17,9 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
+#include <vector>
 
 #include "protocol/errors.h"
 #include "protocol/http_api.h"
@@ -73,6 +75,11 @@ class HttpHandler {
   struct Shape;
   Shape shape_of(const HttpRequest& request) const;
   std::variant<HttpReply, HttpWork> route(const HttpRequest& request, const Shape& shape) const;
+  using QueryParameters = std::vector<std::pair<std::string, std::string>>;
+  HttpReply mesh_reply(const Shape& shape, const protocol::HttpRoute& route) const;
+  HttpWork geometry_work(const Shape& shape, const std::string& mesh_id) const;
+  HttpWork query_work(const HttpRequest& request, const Shape& shape,
+                      const protocol::HttpRoute& route, const QueryParameters& parameters) const;
   std::variant<HttpReply, HttpWork> rpc(const HttpRequest& request, const Shape& shape) const;
   HttpReply query_reply(const Shape& shape, const protocol::Call& call,
                         RequestContext& context) const;
