@@ -1,7 +1,8 @@
 // geoproxd configuration: one JSON file (configs/README.md and docs/daemon.md document every key
 // and its default), then the environment (GEOPROX_LOG_LEVEL, GEOPROX_ADMIN_TOKEN,
-// GEOPROX_QUERY_TOKEN), then the command line (--bind, --port, --admin-port, --http-port). Unknown keys are
-// refused, naming the key, so a misspelt option never silently falls back to its default.
+// GEOPROX_QUERY_TOKEN), then the command line (--bind, --port, --admin-port, --http-port).
+// Unknown keys are refused, naming the key, so a misspelt option never silently falls back to
+// its default.
 #pragma once
 
 #include <cstddef>

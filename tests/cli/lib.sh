@@ -105,7 +105,8 @@ daemon_binary() {
 run_daemon() {
   local config=$1 mesh=$2 tries=$3 geoproxd
   geoproxd=$(daemon_binary)
-  "$geoproxd" --config "$config" --port 0 --admin-port 0 --http-port 0 --port-file "$tmp/port.json" \
+  "$geoproxd" --config "$config" --port 0 --admin-port 0 --http-port 0 \
+    --port-file "$tmp/port.json" \
     >"$tmp/daemon.log" 2>&1 &
   daemon_pid=$!
   for _ in $(seq 100); do

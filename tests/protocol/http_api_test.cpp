@@ -32,8 +32,9 @@ TEST(HttpRoute, PathsNameTheirResource) {
 }
 
 TEST(HttpQuery, QueryStringsBecomeTypedParams) {
-  const auto query = parse_query_string("source=p%3A0.1%2C0.2%2C0.3&exact=true&cutoff=1.5e-1"
-                                        "&sources=v:1&sources=v:2&type=bspline&samples=40&&x=a+b");
+  const auto query = parse_query_string(
+      "source=p%3A0.1%2C0.2%2C0.3&exact=true&cutoff=1.5e-1"
+      "&sources=v:1&sources=v:2&type=bspline&samples=40&&x=a+b");
   ASSERT_EQ(query.size(), 8u);
   EXPECT_EQ(query[0].second, "p:0.1,0.2,0.3");
   EXPECT_EQ(query[7].second, "a b");
@@ -93,8 +94,7 @@ TEST(HttpNegotiation, AcceptPicksTheFormatByQualityAndSpecificity) {
   EXPECT_EQ(negotiate_format("*/*", true), HttpFormat::Json);
   EXPECT_EQ(negotiate_format("application/octet-stream", true), HttpFormat::OctetStream);
   EXPECT_EQ(negotiate_format("application/x-npy, */*;q=0.1", true), HttpFormat::Npy);
-  EXPECT_EQ(negotiate_format("application/json;q=0.5, application/x-npy", true),
-            HttpFormat::Npy);
+  EXPECT_EQ(negotiate_format("application/json;q=0.5, application/x-npy", true), HttpFormat::Npy);
   EXPECT_EQ(negotiate_format("application/*;q=0.2, application/json;q=0", true),
             HttpFormat::OctetStream);
   EXPECT_EQ(negotiate_format("Application/JSON", false), HttpFormat::Json);
@@ -129,7 +129,8 @@ TEST(HttpArrays, LittleEndianValuesAndNumpyFiles) {
 
   const std::string npy = encode_npy(uint32_array(std::vector<std::uint32_t>{1, 2, 3}, {3}));
   ASSERT_EQ(npy.substr(0, 8), std::string("\x93NUMPY\x01\x00", 8));
-  const std::size_t header = static_cast<unsigned char>(npy[8]) + 256u * static_cast<unsigned char>(npy[9]);
+  const std::size_t header =
+      static_cast<unsigned char>(npy[8]) + 256u * static_cast<unsigned char>(npy[9]);
   EXPECT_EQ((10 + header) % 64, 0u);
   EXPECT_EQ(npy.substr(10, header),
             std::string("{'descr': '<u4', 'fortran_order': False, 'shape': (3,), }") +
@@ -141,8 +142,8 @@ TEST(HttpArrays, LittleEndianValuesAndNumpyFiles) {
 }
 
 TEST(HttpErrors, ErrorBodiesCarryTheJsonRpcErrorObject) {
-  const json body = json::parse(http_error_body(
-      ProtocolError(ErrorReason::Overloaded, "busy").set_retry_after_ms(250)));
+  const json body = json::parse(
+      http_error_body(ProtocolError(ErrorReason::Overloaded, "busy").set_retry_after_ms(250)));
   EXPECT_EQ(body["error"]["code"], -32030);
   EXPECT_EQ(body["error"]["message"], "busy");
   EXPECT_EQ(body["error"]["data"]["reason"], "Overloaded");

@@ -150,7 +150,8 @@ TEST_F(HttpTest, ResourcePathsAnswerWhatTheTcpMethodsAnswer) {
   HttpClient http(http_port());
   const json distance = tcp.result(
       "geodesic.distance", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "f:100:0.2:0.3:0.5"}});
-  HttpResponse get = http.request("GET", "/v1/meshes/spot/distance?source=v%3A0&target=f:100:0.2:0.3:0.5");
+  HttpResponse get =
+      http.request("GET", "/v1/meshes/spot/distance?source=v%3A0&target=f:100:0.2:0.3:0.5");
   ASSERT_EQ(get.status, 200) << get.body;
   EXPECT_EQ(get.header("content-type"), "application/json");
   EXPECT_EQ(get.json_body(), distance);
@@ -160,19 +161,24 @@ TEST_F(HttpTest, ResourcePathsAnswerWhatTheTcpMethodsAnswer) {
   EXPECT_EQ(post.json_body(), distance);
   EXPECT_EQ(post.json_body()["distance"].get<double>(), distance["distance"].get<double>());
 
-  const json path = tcp.result("geodesic.path", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:500"}});
+  const json path =
+      tcp.result("geodesic.path", {{"mesh", "spot"}, {"source", "v:0"}, {"target", "v:500"}});
   EXPECT_EQ(http.request("GET", "/v1/meshes/spot/path?source=v:0&target=v:500").json_body(), path);
-  const json matrix = tcp.result("geodesic.matrix", {{"mesh", "spot"},
-                                                     {"sources", {"v:0", "v:7"}},
-                                                     {"targets", {"v:9", "v:700", "v:1200"}}});
-  EXPECT_EQ(http.request("GET", "/v1/meshes/spot/matrix?sources=v:0&sources=v:7&targets=v:9&"
-                                "targets=v:700&targets=v:1200")
+  const json matrix = tcp.result(
+      "geodesic.matrix",
+      {{"mesh", "spot"}, {"sources", {"v:0", "v:7"}}, {"targets", {"v:9", "v:700", "v:1200"}}});
+  EXPECT_EQ(http.request("GET",
+                         "/v1/meshes/spot/matrix?sources=v:0&sources=v:7&targets=v:9&"
+                         "targets=v:700&targets=v:1200")
                 .json_body(),
             matrix);
-  const json field = tcp.result("geodesic.field", {{"mesh", "spot"}, {"source", "v:3"}, {"cutoff", 0.5}});
+  const json field =
+      tcp.result("geodesic.field", {{"mesh", "spot"}, {"source", "v:3"}, {"cutoff", 0.5}});
   EXPECT_EQ(http.request("GET", "/v1/meshes/spot/field?source=v:3&cutoff=0.5").json_body(), field);
-  const json expmap = tcp.result("geodesic.expmap", {{"mesh", "spot"}, {"source", "v:3"}, {"radius", 0.1}});
-  EXPECT_EQ(http.request("POST", "/v1/meshes/spot/expmap", R"({"source":"v:3","radius":0.1})").json_body(),
+  const json expmap =
+      tcp.result("geodesic.expmap", {{"mesh", "spot"}, {"source", "v:3"}, {"radius", 0.1}});
+  EXPECT_EQ(http.request("POST", "/v1/meshes/spot/expmap", R"({"source":"v:3","radius":0.1})")
+                .json_body(),
             expmap);
   EXPECT_EQ(http.request("GET", "/v1/meshes").json_body(), tcp.result("mesh.list"));
   EXPECT_EQ(http.request("GET", "/v1/meshes/spot").json_body(),
@@ -181,12 +187,14 @@ TEST_F(HttpTest, ResourcePathsAnswerWhatTheTcpMethodsAnswer) {
 
 TEST_F(HttpTest, BinaryArraysEqualTheJsonOnes) {
   HttpClient http(http_port());
-  const json field = http.request("GET", "/v1/meshes/spot/field?sources=v:3&sources=v:2000&cutoff=0.3")
-                         .json_body();
+  const json field =
+      http.request("GET", "/v1/meshes/spot/field?sources=v:3&sources=v:2000&cutoff=0.3")
+          .json_body();
   const std::size_t n = field["distances"].size();
   ASSERT_EQ(n, 2930u);
-  const HttpResponse raw = http.request("GET", "/v1/meshes/spot/field?sources=v:3&sources=v:2000&cutoff=0.3",
-                                        "", {"Accept: application/octet-stream"});
+  const HttpResponse raw =
+      http.request("GET", "/v1/meshes/spot/field?sources=v:3&sources=v:2000&cutoff=0.3", "",
+                   {"Accept: application/octet-stream"});
   ASSERT_EQ(raw.status, 200) << raw.body;
   EXPECT_EQ(raw.header("content-type"), "application/octet-stream");
   EXPECT_EQ(raw.header("x-geoprox-dtype"), "float64");
@@ -205,9 +213,9 @@ TEST_F(HttpTest, BinaryArraysEqualTheJsonOnes) {
     }
   }
   EXPECT_GT(unreached, 0u);  // the cutoff leaves some vertices out: they are NaN
-  const HttpResponse nearest =
-      http.request("GET", "/v1/meshes/spot/field?sources=v:3&sources=v:2000&cutoff=0.3&array=nearest_source",
-                   "", {"Accept: application/octet-stream"});
+  const HttpResponse nearest = http.request(
+      "GET", "/v1/meshes/spot/field?sources=v:3&sources=v:2000&cutoff=0.3&array=nearest_source", "",
+      {"Accept: application/octet-stream"});
   EXPECT_EQ(nearest.header("x-geoprox-dtype"), "uint32");
   const std::vector<std::uint32_t> owners = decode_le<std::uint32_t>(nearest.body);
   ASSERT_EQ(owners.size(), n);
@@ -220,8 +228,8 @@ TEST_F(HttpTest, BinaryArraysEqualTheJsonOnes) {
   const std::string matrix_target =
       "/v1/meshes/spot/matrix?sources=v:0&sources=v:7&targets=v:9&targets=v:700&targets=v:1200";
   const json matrix = http.request("GET", matrix_target).json_body();
-  const HttpResponse npy = http.request("GET", matrix_target + "&dtype=float32", "",
-                                        {"Accept: application/x-npy"});
+  const HttpResponse npy =
+      http.request("GET", matrix_target + "&dtype=float32", "", {"Accept: application/x-npy"});
   ASSERT_EQ(npy.status, 200) << npy.body;
   EXPECT_EQ(npy.header("x-geoprox-shape"), "2,3");
   ASSERT_EQ(npy.body.substr(0, 8), std::string("\x93NUMPY\x01\x00", 8));
@@ -246,8 +254,8 @@ TEST_F(HttpTest, BinaryArraysEqualTheJsonOnes) {
   const std::vector<std::uint32_t> ids = decode_le<std::uint32_t>(triangles.body);
   ASSERT_EQ(ids.size(), 3 * 5856u);
   for (std::size_t i = 0; i < ids.size(); i += 997) EXPECT_EQ(ids[i], geometry["triangles"][i]);
-  const HttpResponse positions = http.request("GET", "/v1/meshes/spot/geometry", "",
-                                              {"Accept: application/octet-stream"});
+  const HttpResponse positions =
+      http.request("GET", "/v1/meshes/spot/geometry", "", {"Accept: application/octet-stream"});
   const std::vector<double> xyz = decode_le<double>(positions.body);
   ASSERT_EQ(xyz.size(), 3 * 2930u);
   for (std::size_t i = 0; i < xyz.size(); i += 101) EXPECT_EQ(xyz[i], geometry["positions"][i]);
@@ -267,8 +275,8 @@ TEST_F(HttpTest, RpcTakesJsonRpcRequests) {
   EXPECT_EQ(unknown.status, 404);
   EXPECT_EQ(unknown.json_body()["error"]["data"]["reason"], "UnknownMesh");
   EXPECT_EQ(unknown.json_body()["id"], 2);
-  HttpResponse notification = http.request(
-      "POST", "/v1/rpc", R"({"jsonrpc":"2.0","method":"server.health"})");
+  HttpResponse notification =
+      http.request("POST", "/v1/rpc", R"({"jsonrpc":"2.0","method":"server.health"})");
   EXPECT_EQ(notification.status, 204);
   EXPECT_TRUE(notification.body.empty());
   EXPECT_EQ(notification.header("content-length"), "");  // RFC 9110: none on a 204
@@ -290,9 +298,9 @@ TEST_F(HttpTest, RpcTakesJsonRpcRequests) {
   EXPECT_EQ(replies[1]["error"]["data"]["reason"], "InvalidRequest");
   EXPECT_TRUE(replies[1]["id"].is_null());
   EXPECT_EQ(replies[2]["id"], "m");
-  EXPECT_EQ(http.request("POST", "/v1/rpc", R"([{"jsonrpc":"2.0","method":"server.health"}])")
-                .status,
-            204);
+  EXPECT_EQ(
+      http.request("POST", "/v1/rpc", R"([{"jsonrpc":"2.0","method":"server.health"}])").status,
+      204);
   HttpResponse empty = http.request("POST", "/v1/rpc", "[]");
   EXPECT_EQ(empty.status, 400);
   EXPECT_EQ(empty.json_body()["error"]["data"]["reason"], "InvalidRequest");
@@ -307,19 +315,44 @@ TEST_F(HttpTest, EveryBadRequestGetsItsStatusAndTheConnectionKeepsWorking) {
     std::string reason;
   };
   const std::vector<Case> cases = {
-      {"GET", "/v1/meshes/spot/distance?source=v:0&target=v:99999", "", {}, 400, "VertexOutOfRange"},
-      {"GET", "/v1/meshes/spot/distance?source=v:0&target=f:1:0.5:0.6:0.1", "", {}, 400,
+      {"GET",
+       "/v1/meshes/spot/distance?source=v:0&target=v:99999",
+       "",
+       {},
+       400,
+       "VertexOutOfRange"},
+      {"GET",
+       "/v1/meshes/spot/distance?source=v:0&target=f:1:0.5:0.6:0.1",
+       "",
+       {},
+       400,
        "BadBarycentric"},
       {"GET", "/v1/meshes/spot/distance?source=v:0&target=p:nan,0,0", "", {}, 400, "BadPoint"},
-      {"GET", "/v1/meshes/spot/distance?source=v:0&target=v:1&bogus=1", "", {}, 400,
+      {"GET",
+       "/v1/meshes/spot/distance?source=v:0&target=v:1&bogus=1",
+       "",
+       {},
+       400,
        "InvalidParams"},
-      {"GET", "/v1/meshes/spot/distance?source=v:0&source=v:1&target=v:1", "", {}, 400,
+      {"GET",
+       "/v1/meshes/spot/distance?source=v:0&source=v:1&target=v:1",
+       "",
+       {},
+       400,
        "InvalidParams"},
       {"GET", "/v1/meshes/spot/field?source=v:0&cutoff=far", "", {}, 400, "InvalidParams"},
       {"GET", "/v1/meshes/spot/distance?source=v%ZZ", "", {}, 400, "InvalidParams"},
-      {"POST", "/v1/meshes/spot/distance", R"({"mesh":"spot","source":"v:0","target":"v:1"})", {},
-       400, "InvalidParams"},
-      {"POST", "/v1/meshes/spot/distance", R"({"source":"v:0","source":"v:1"})", {}, 400,
+      {"POST",
+       "/v1/meshes/spot/distance",
+       R"({"mesh":"spot","source":"v:0","target":"v:1"})",
+       {},
+       400,
+       "InvalidParams"},
+      {"POST",
+       "/v1/meshes/spot/distance",
+       R"({"source":"v:0","source":"v:1"})",
+       {},
+       400,
        "InvalidRequest"},
       {"POST", "/v1/meshes/spot/distance", "[1]", {}, 400, "InvalidParams"},
       {"GET", "/v1/meshes/nope/distance?source=v:0&target=v:1", "", {}, 404, "UnknownMesh"},
@@ -328,17 +361,37 @@ TEST_F(HttpTest, EveryBadRequestGetsItsStatusAndTheConnectionKeepsWorking) {
       {"GET", "/v1/meshes/bad%20id/distance", "", {}, 404, "NotFound"},
       {"DELETE", "/v1/meshes/spot", "", {}, 405, "InvalidRequest"},
       {"GET", "/v1/rpc", "", {}, 405, "InvalidRequest"},
-      {"GET", "/v1/meshes/spot/distance?source=v:0&target=v:1", "", {"Accept: image/png"}, 406,
+      {"GET",
+       "/v1/meshes/spot/distance?source=v:0&target=v:1",
+       "",
+       {"Accept: image/png"},
+       406,
        "InvalidRequest"},
-      {"GET", "/v1/meshes/spot/distance?source=v:0&target=v:1", "",
-       {"Accept: application/octet-stream"}, 406, "InvalidRequest"},
-      {"POST", "/v1/meshes/spot/distance", R"({"source":"v:0","target":"v:1"})",
-       {"Content-Type: application/x-www-form-urlencoded"}, 415, "InvalidRequest"},
-      {"GET", "/v1/meshes/spot/field?source=v:0&array=colors", "",
-       {"Accept: application/octet-stream"}, 400, "InvalidParams"},
+      {"GET",
+       "/v1/meshes/spot/distance?source=v:0&target=v:1",
+       "",
+       {"Accept: application/octet-stream"},
+       406,
+       "InvalidRequest"},
+      {"POST",
+       "/v1/meshes/spot/distance",
+       R"({"source":"v:0","target":"v:1"})",
+       {"Content-Type: application/x-www-form-urlencoded"},
+       415,
+       "InvalidRequest"},
+      {"GET",
+       "/v1/meshes/spot/field?source=v:0&array=colors",
+       "",
+       {"Accept: application/octet-stream"},
+       400,
+       "InvalidParams"},
       {"GET", "/v1/meshes/spot/field?source=v:0&dtype=int8", "", {}, 400, "InvalidParams"},
-      {"GET", "/v1/meshes/spot/field?source=v:0&array=nearest_source", "",
-       {"Accept: application/octet-stream"}, 400, "InvalidParams"},
+      {"GET",
+       "/v1/meshes/spot/field?source=v:0&array=nearest_source",
+       "",
+       {"Accept: application/octet-stream"},
+       400,
+       "InvalidParams"},
   };
   for (const Case& c : cases) {
     const HttpResponse r = http.request(c.method, c.target, c.body, c.headers);
@@ -389,9 +442,10 @@ TEST_F(HttpTest, KeepAlivePipeliningChunkedBodiesHttp10AndHead) {
     ASSERT_EQ(r.status, 200);
     EXPECT_EQ(r.json_body()["target"]["vertex"], 100 * i);  // in order
   }
-  ASSERT_TRUE(http.send_raw(
-      "POST /v1/rpc HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n"
-      "5\r\n{\"jso\r\n34\r\nnrpc\":\"2.0\",\"id\":7,\"method\":\"mesh.list\",\"params\":{}}\r\n0\r\n\r\n"));
+  ASSERT_TRUE(
+      http.send_raw("POST /v1/rpc HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n"
+                    "5\r\n{\"jso\r\n34\r\nnrpc\":\"2.0\",\"id\":7,\"method\":\"mesh.list\","
+                    "\"params\":{}}\r\n0\r\n\r\n"));
   const HttpResponse chunked = http.read();
   ASSERT_EQ(chunked.status, 200) << chunked.body;
   EXPECT_EQ(chunked.json_body()["id"], 7);
@@ -473,10 +527,10 @@ TEST(HttpAccess, TheQueryTokenIsABearerTokenAndTheHealthChecksStayOpen) {
   EXPECT_EQ(http.request("GET", "/readyz").status, 200);
   EXPECT_EQ(http.request("GET", "/healthz").status, 200);
   // Past the query token, a wrong admin token is forbidden, not unauthenticated.
-  const HttpResponse admin = http.request(
-      "POST", "/v1/rpc",
-      R"({"jsonrpc":"2.0","id":1,"method":"admin.reload","params":{"token":"x"}})",
-      {"Authorization: Bearer s3cret"});
+  const HttpResponse admin =
+      http.request("POST", "/v1/rpc",
+                   R"({"jsonrpc":"2.0","id":1,"method":"admin.reload","params":{"token":"x"}})",
+                   {"Authorization: Bearer s3cret"});
   EXPECT_EQ(admin.status, 403);
   EXPECT_EQ(admin.json_body()["error"]["data"]["reason"], "Unauthorized");
 }
@@ -490,9 +544,10 @@ TEST(HttpLifecycle, DrainAnswersTheRequestBeingReadAndClosesIdleConnections) {
   // A request whose body is still on its way when the drain starts.
   const std::string body = R"({"source":"v:0","target":"v:9"})";
   HttpClient reading(server.server->http_port());
-  ASSERT_TRUE(reading.send_raw("POST /v1/meshes/spot/distance HTTP/1.1\r\nHost: x\r\n"
-                               "Content-Type: application/json\r\nContent-Length: " +
-                               std::to_string(body.size()) + "\r\n\r\n" + body.substr(0, 5)));
+  ASSERT_TRUE(
+      reading.send_raw("POST /v1/meshes/spot/distance HTTP/1.1\r\nHost: x\r\n"
+                       "Content-Type: application/json\r\nContent-Length: " +
+                       std::to_string(body.size()) + "\r\n\r\n" + body.substr(0, 5)));
   std::this_thread::sleep_for(100ms);
   server.server->shutdown();
   EXPECT_TRUE(idle.closed_by_peer());  // nothing was owed to it
