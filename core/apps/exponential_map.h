@@ -101,7 +101,8 @@ class TangentFrame {
 };
 
 /// A face point on an edge or at a corner as that edge or vertex point, an edge point at t = 0
-/// or 1 as its vertex; other points unchanged. Validates the point (InvalidInput).
+/// or 1 as its vertex, barycentrics off the simplex beyond rounding divided by their sum; other
+/// points unchanged. Validates the point (InvalidInput).
 SurfacePoint canonical_surface_point(const TriangleMesh& mesh, const SurfacePoint& point);
 
 class ExponentialMap {

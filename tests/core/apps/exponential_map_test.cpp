@@ -124,6 +124,16 @@ TEST(ExponentialMap, FaceFrameAndVertexFanAngles) {
   ASSERT_EQ(on_edge.kind, SurfacePoint::Kind::Edge);
   EXPECT_NEAR(norm(on_edge.position(mesh) - SurfacePoint::face(f, 0.25, 0.75, 0).position(mesh)),
               0, 1e-15);
+  // Barycentrics accepted off the simplex name their normalized point, positive denormals
+  // included (the application fuzzer's finding: a Bezier started 3e-7 away from its point);
+  // on the simplex they stay as given, to the bit.
+  const SurfacePoint off = SurfacePoint::face(f, 3.6e-310, 1.0000003, 8.2e-317);
+  const SurfacePoint normalized = canonical_surface_point(mesh, off);
+  ASSERT_EQ(normalized.kind, SurfacePoint::Kind::Face);
+  EXPECT_DOUBLE_EQ(normalized.bary[0] + normalized.bary[1] + normalized.bary[2], 1.0);
+  EXPECT_EQ(normalized.bary[1], 1.0000003 / (3.6e-310 + 1.0000003 + 8.2e-317));
+  const SurfacePoint inside = SurfacePoint::face(f, 0.2, 0.3, 0.5);
+  EXPECT_EQ(canonical_surface_point(mesh, inside).bary, inside.bary);
 }
 
 TEST(ExponentialMap, ExactMapUnrollsACylinder) {
