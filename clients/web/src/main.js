@@ -58,6 +58,10 @@ const uniforms = {
 
 const material = new THREE.ShaderMaterial({
   uniforms,
+  // Pushes the surface back in depth so that the path drawn on it stays in front.
+  polygonOffset: true,
+  polygonOffsetFactor: 1,
+  polygonOffsetUnits: 1,
   vertexShader: /* glsl */ `
     attribute float dist;
     attribute float nearest;
@@ -250,7 +254,8 @@ async function loadMesh(id, { keepState }) {
     geometry.setAttribute('nearest', new THREE.BufferAttribute(new Float32Array(n).fill(-1), 1));
     geometry.computeBoundingBox();
     geometry.computeBoundingSphere();
-    geometry.computeBoundsTree();
+    // indirect: the BVH must not reorder the index, whose triangle order is the server's face ids.
+    geometry.computeBoundsTree({ indirect: true });
     mesh = new THREE.Mesh(geometry, material);
     scene.add(mesh);
     const box = geometry.boundingBox;
@@ -293,7 +298,9 @@ function placeCamera() {
   } else {
     const dist = sphere.radius / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2)) * 1.05;
     controls.target.copy(sphere.center);
-    camera.position.copy(sphere.center).add(new THREE.Vector3(0, 0, dist));
+    // A three-quarter view.
+    const dir = new THREE.Vector3(0.55, 0.35, 1).normalize();
+    camera.position.copy(sphere.center).addScaledVector(dir, dist);
   }
   camera.updateProjectionMatrix();
   controls.update();
@@ -392,7 +399,7 @@ function renderMarkers() {
   if (state.target) {
     const p = pointPosition(state.target);
     if (p) {
-      const m = new THREE.Mesh(geo, new THREE.MeshBasicMaterial({ color: 0xff2050 }));
+      const m = new THREE.Mesh(geo, new THREE.MeshBasicMaterial({ color: 0xffa000 }));
       m.position.copy(p);
       markers.add(m);
     }
@@ -423,6 +430,7 @@ async function updateField(t0 = performance.now()) {
       several ? api.array(path, { ...p, array: 'nearest_source' }) : null,
     ]);
     const fetchMs = performance.now() - tf;
+    hook.lastFieldTiming = resourceTiming(path);
     if (my !== fieldRequest) return; // a newer click won
     const da = geometry.attributes.dist;
     let max = 0;
@@ -459,6 +467,17 @@ async function updateField(t0 = performance.now()) {
       setTimeout(() => updateField(), Math.max(500, e.retryAfterMs || 1000));
     }
   }
+}
+
+/** Resource timing of the last request to path: time waiting for the answer, and in all. */
+function resourceTiming(path) {
+  const entries = performance.getEntriesByType('resource').filter((e) => e.name.includes(path));
+  const e = entries[entries.length - 1];
+  performance.clearResourceTimings();
+  if (!e) return null;
+  // Cross-origin entries without Timing-Allow-Origin have no request/response marks (0).
+  const waitMs = e.requestStart > 0 && e.responseStart > 0 ? e.responseStart - e.requestStart : null;
+  return { waitMs, totalMs: e.responseEnd - e.startTime };
 }
 
 function applyControls() {
@@ -585,7 +604,7 @@ async function updatePath(t0 = performance.now()) {
 function drawPath(points) {
   const pos = mesh.geometry.attributes.position;
   const idx = mesh.geometry.index;
-  const offset = meshDiag * 0.002;
+  const offset = meshDiag * 0.003;
   const tri = new THREE.Triangle();
   const normal = new THREE.Vector3();
   const xyz = [];
@@ -633,12 +652,18 @@ const hook = {
   pathErrors: 0,
   lastFieldMs: null,
   lastFieldFetchMs: null,
+  lastFieldTiming: null,
   lastPathMs: null,
   lastPick: null,
+  get debug() {
+    return { fieldRequest, pathRequest, renderPending, frameWaiters: frameWaiters.length, loading };
+  },
   pick,
-  /** Client coordinates of vertex i, and whether it is the first surface hit there. */
-  screenOf(i) {
-    const p = new THREE.Vector3().fromBufferAttribute(mesh.geometry.attributes.position, i);
+  pointPosition: (p) => pointPosition(p).toArray(),
+  /** Client coordinates of a point string ("v:I" or "f:F:B0:B1:B2"), and whether that point is
+   *  the first surface hit there (not hidden, not off screen). */
+  screenOf(point) {
+    const p = pointPosition(point);
     const ndc = p.clone().project(camera);
     const rect = renderer.domElement.getBoundingClientRect();
     const x = rect.left + ((ndc.x + 1) / 2) * rect.width;
@@ -646,7 +671,7 @@ const hook = {
     const inside = Math.abs(ndc.x) < 0.95 && Math.abs(ndc.y) < 0.95 && ndc.z < 1;
     const hit = inside ? pick(x, y) : null;
     const visible = !!hit && hit.position.distanceTo(p) < meshDiag * 1e-3;
-    return { x, y, visible, hit };
+    return { x, y, visible, hit: hit && hit.point, position: p.toArray() };
   },
   nextFrame,
 };

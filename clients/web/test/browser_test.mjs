@@ -1,0 +1,408 @@
+// Browser test of the viewer: geoproxd on the sample meshes, dist/ served by a tiny static server,
+// the page in headless Chromium (puppeteer-core). Clicks a source and shift-clicks a target at
+// computed screen positions, compares the distance the page shows with the daemon's own answer
+// (1e-9), checks the pixels (viridis field, path), saves a screenshot and times 20 clicks.
+//
+//   node test/browser_test.mjs --geoproxd PATH [--screenshot out.png] [--chromium /usr/bin/chromium]
+//                              [--clicks 20] [--mesh spot] [--keep]
+// Environment instead of flags: GEOPROXD, CHROMIUM, GEOPROX_WEB_SCREENSHOT, GEOPROX_WEB_GL
+// (extra Chromium flags for WebGL, space-separated; default --use-angle=swiftshader
+// --enable-unsafe-swiftshader).
+import { spawn } from 'node:child_process';
+import fs from 'node:fs';
+import http from 'node:http';
+import net from 'node:net';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import puppeteer from 'puppeteer-core';
+import { PNG } from 'pngjs';
+import { viridis } from '../src/viridis.js';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const webDir = path.resolve(here, '..');
+const repoRoot = path.resolve(webDir, '../..');
+const distDir = path.join(webDir, 'dist');
+
+function arg(name, env, dflt) {
+  const i = process.argv.indexOf(`--${name}`);
+  if (i >= 0 && i + 1 < process.argv.length) return process.argv[i + 1];
+  if (env && process.env[env]) return process.env[env];
+  return dflt;
+}
+const geoproxd = arg('geoproxd', 'GEOPROXD', '');
+const chromium = arg('chromium', 'CHROMIUM', '/usr/bin/chromium');
+const screenshotPath = path.resolve(arg('screenshot', 'GEOPROX_WEB_SCREENSHOT', 'viewer-test.png'));
+const clicks = Number(arg('clicks', null, '20'));
+const meshId = arg('mesh', null, 'spot');
+const keep = process.argv.includes('--keep');
+const glFlags = (arg('gl', 'GEOPROX_WEB_GL', '--use-angle=swiftshader --enable-unsafe-swiftshader'))
+  .split(/\s+/)
+  .filter(Boolean);
+
+let failures = 0;
+function check(ok, what) {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures++;
+  return ok;
+}
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+const median = (xs) => {
+  const s = [...xs].sort((a, b) => a - b);
+  const m = s.length >> 1;
+  return s.length % 2 ? s[m] : (s[m - 1] + s[m]) / 2;
+};
+
+/** n distinct free TCP ports on 127.0.0.1 (all held open until all are found). */
+async function freePorts(n) {
+  const servers = [];
+  for (let i = 0; i < n; i++) {
+    servers.push(
+      await new Promise((resolve, reject) => {
+        const srv = net.createServer();
+        srv.on('error', reject);
+        srv.listen(0, '127.0.0.1', () => resolve(srv));
+      }),
+    );
+  }
+  const ports = servers.map((s) => s.address().port);
+  await Promise.all(servers.map((s) => new Promise((r) => s.close(r))));
+  return ports;
+}
+
+// ---------------------------------------------------------------- static server of dist/
+const TYPES = {
+  '.html': 'text/html; charset=utf-8',
+  '.js': 'text/javascript; charset=utf-8',
+  '.css': 'text/css; charset=utf-8',
+  '.png': 'image/png',
+  '.svg': 'image/svg+xml',
+  '.json': 'application/json',
+};
+function serveDist(port) {
+  const server = http.createServer((req, res) => {
+    const urlPath = decodeURIComponent(new URL(req.url, 'http://x').pathname);
+    const rel = urlPath === '/' ? 'index.html' : urlPath.replace(/^\/+/, '');
+    const file = path.resolve(distDir, rel);
+    if (!file.startsWith(distDir + path.sep) || !fs.existsSync(file) || !fs.statSync(file).isFile()) {
+      res.writeHead(404, { 'Content-Type': 'text/plain' });
+      res.end('not found');
+      return;
+    }
+    res.writeHead(200, { 'Content-Type': TYPES[path.extname(file)] || 'application/octet-stream' });
+    fs.createReadStream(file).pipe(res);
+  });
+  return new Promise((resolve) => server.listen(port, '127.0.0.1', () => resolve(server)));
+}
+
+// ---------------------------------------------------------------- pixels
+const VIRIDIS_TABLE = Array.from({ length: 65 }, (_, i) => viridis(i / 64));
+/** Bucket 0..15 of the viridis colour a pixel is a shade of, or -1. */
+function viridisBucket(r, g, b) {
+  const p = [r / 255, g / 255, b / 255];
+  const sat = Math.max(...p) - Math.min(...p);
+  if (sat < 0.12) return -1; // greys: the bare mesh, the background
+  let best = -1;
+  let bestErr = 0.05;
+  VIRIDIS_TABLE.forEach((v, i) => {
+    const vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    const k = (p[0] * v[0] + p[1] * v[1] + p[2] * v[2]) / vv;
+    if (k < 0.45 || k > 1.05) return;
+    const err = Math.hypot(p[0] - k * v[0], p[1] - k * v[1], p[2] - k * v[2]);
+    if (err < bestErr) {
+      bestErr = err;
+      best = i;
+    }
+  });
+  return best < 0 ? -1 : Math.min(15, best >> 2);
+}
+function analyse(pngBuffer) {
+  const png = PNG.sync.read(pngBuffer);
+  const { width, height, data } = png;
+  let viridisPixels = 0;
+  const buckets = new Set();
+  let pathPixels = 0;
+  let minX = width, maxX = -1, minY = height, maxY = -1;
+  for (let y = 0; y < height; y++) {
+    for (let x = 0; x < width; x++) {
+      const o = 4 * (y * width + x);
+      const r = data[o], g = data[o + 1], b = data[o + 2];
+      // The path: 0xff2050, which viridis never comes near.
+      if (r > 200 && g < 90 && b > 40 && b < 140) {
+        pathPixels++;
+        minX = Math.min(minX, x); maxX = Math.max(maxX, x);
+        minY = Math.min(minY, y); maxY = Math.max(maxY, y);
+        continue;
+      }
+      const k = viridisBucket(r, g, b);
+      if (k >= 0) {
+        viridisPixels++;
+        buckets.add(k);
+      }
+    }
+  }
+  const extent = maxX < 0 ? 0 : Math.max(maxX - minX, maxY - minY);
+  return { width, height, viridisPixels, buckets: buckets.size, pathPixels, pathExtent: extent };
+}
+
+// ---------------------------------------------------------------- main
+async function main() {
+  if (!geoproxd || !fs.existsSync(geoproxd)) {
+    throw new Error('give the geoproxd binary: --geoproxd PATH or GEOPROXD=PATH');
+  }
+  if (!fs.existsSync(path.join(distDir, 'index.html'))) throw new Error('no dist/: run `npm run build` first');
+  if (!fs.existsSync(chromium)) throw new Error(`no Chromium at ${chromium} (apt-get install chromium)`);
+
+  const tmp = fs.mkdtempSync(path.join(os.tmpdir(), 'geoprox-web-'));
+  const [port, httpPort, staticPort, deadPort] = await freePorts(4);
+  const cfg = {
+    bind: '127.0.0.1',
+    port,
+    admin_port: 0,
+    http_port: httpPort,
+    http_cors_origins: ['*'],
+    compute_threads: 1,
+    build_threads: 1,
+    data_dir: path.join(repoRoot, 'data'),
+    graph_dir: path.join(tmp, 'graphs'),
+    log_level: 'warn',
+    meshes: [
+      { id: 'spot', mesh: 'meshes/spot.obj' },
+      { id: 'dragon', mesh: 'meshes/ChineseDragon-10kv.off' },
+    ],
+  };
+  fs.writeFileSync(path.join(tmp, 'cfg.json'), JSON.stringify(cfg, null, 2));
+  const daemonLog = fs.openSync(path.join(tmp, 'geoproxd.log'), 'w');
+  const daemon = spawn(geoproxd, ['--config', path.join(tmp, 'cfg.json')], {
+    stdio: ['ignore', daemonLog, daemonLog],
+  });
+  let daemonExited = false;
+  daemon.on('exit', () => (daemonExited = true));
+  const apiBase = `http://127.0.0.1:${httpPort}`;
+  let server = null;
+  let browser = null;
+  try {
+    // The daemon, ready, with the mesh's graph built.
+    const t0 = Date.now();
+    for (;;) {
+      if (daemonExited) throw new Error(`geoproxd exited: ${fs.readFileSync(path.join(tmp, 'geoproxd.log'), 'utf8')}`);
+      if (Date.now() - t0 > 180000) throw new Error('geoproxd not ready in 180 s');
+      try {
+        const list = await (await fetch(`${apiBase}/v1/meshes`)).json();
+        const m = list.meshes.find((x) => x.id === meshId);
+        if (m && m.state === 'ready') break;
+      } catch {
+        /* not listening yet */
+      }
+      await sleep(200);
+    }
+    console.log(`geoproxd ready on ${apiBase} in ${Date.now() - t0} ms`);
+
+    server = await serveDist(staticPort);
+    const pageUrl = `http://127.0.0.1:${staticPort}/?api=${encodeURIComponent(apiBase)}&mesh=${meshId}`;
+    browser = await puppeteer.launch({
+      executablePath: chromium,
+      headless: true,
+      userDataDir: path.join(tmp, 'chromium-profile'),
+      args: [
+        '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+        '--disable-background-networking', '--disable-component-update', '--disable-sync',
+        ...glFlags,
+      ],
+      defaultViewport: { width: 1100, height: 720 },
+    });
+    const page = await browser.newPage();
+    const pageErrors = [];
+    page.on('pageerror', (e) => pageErrors.push(String(e)));
+    page.on('console', (m) => {
+      if (m.type() === 'error') pageErrors.push(m.text());
+    });
+    await page.goto(pageUrl);
+    await page.waitForFunction(() => window.__geoprox && window.__geoprox.meshSeq >= 1, { timeout: 60000 });
+    const glInfo = await page.evaluate(() => {
+      const gl = window.__geoprox.renderer.getContext();
+      const ext = gl.getExtension('WEBGL_debug_renderer_info');
+      return { version: gl.getParameter(gl.VERSION), renderer: ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : '?' };
+    });
+    console.log(`WebGL: ${glInfo.version}; ${glInfo.renderer}; flags ${glFlags.join(' ')}`);
+    const listText = await page.$eval('#meshes', (e) => e.textContent);
+    check(listText.includes('spot') && listText.includes('ready'), 'the mesh list shows spot, ready');
+
+    const bare = analyse(await page.screenshot());
+    check(bare.viridisPixels < 200, `no field before a click (${bare.viridisPixels} viridis pixels)`);
+
+    // Visible vertices and their screen positions, from the page's own camera.
+    const visible = await page.evaluate(() => {
+      const g = window.__geoprox;
+      // Points inside faces (a ray exactly through a vertex or along an edge can slip between
+      // triangles), a face in 7.
+      const n = g.mesh.geometry.index.count / 3;
+      const out = [];
+      for (let f = 0; f < n; f += 7) {
+        const point = `f:${f}:0.6:0.25:0.15`;
+        const s = g.screenOf(point);
+        if (s.visible) out.push({ f, point, x: s.x, y: s.y, position: s.position });
+      }
+      return out;
+    });
+    check(visible.length > 50, `${visible.length} visible sample vertices`);
+
+    const clickAt = async (v, shift = false) => {
+      if (shift) await page.keyboard.down('Shift');
+      await page.mouse.click(v.x, v.y);
+      if (shift) await page.keyboard.up('Shift');
+    };
+    const waitSeq = async (key, before) => {
+      try {
+        await page.waitForFunction((k, b) => window.__geoprox[k] > b, { timeout: 30000 }, key, before);
+      } catch (e) {
+        const why = await page.evaluate(() => ({
+          error: document.getElementById('error').textContent,
+          status: document.getElementById('status').textContent,
+          lastPick: window.__geoprox.lastPick && window.__geoprox.lastPick.point,
+          debug: window.__geoprox.debug,
+          fieldSeq: window.__geoprox.fieldSeq,
+        }));
+        throw new Error(`waiting for ${key} > ${before}: ${e.message}; page: ${JSON.stringify(why)}; console: ${pageErrors.join(' | ')}`);
+      }
+    };
+    const seq = (key) => page.evaluate((k) => window.__geoprox[k], key);
+
+    // Click-to-coloured-field, 20 clicks on visible vertices.
+    const inPage = [];
+    const outside = [];
+    const fetches = [];
+    const waits = [];
+    for (let c = 0; c < clicks; c++) {
+      const v = visible[Math.floor(((c + 0.5) / clicks) * visible.length)];
+      const before = await seq('fieldSeq');
+      const t = performance.now();
+      await clickAt(v);
+      await waitSeq('fieldSeq', before);
+      outside.push(performance.now() - t);
+      const m = await page.evaluate(() => {
+        const g = window.__geoprox;
+        return { total: g.lastFieldMs, fetch: g.lastFieldFetchMs, wait: g.lastFieldTiming && g.lastFieldTiming.waitMs != null ? g.lastFieldTiming.waitMs : NaN };
+      });
+      inPage.push(m.total);
+      fetches.push(m.fetch);
+      waits.push(m.wait);
+    }
+    console.log(
+      `click to coloured field on ${meshId}, median of ${clicks}: ${median(inPage).toFixed(1)} ms in the page` +
+        ` (pointerup to the frame drawn; the fetch alone ${median(fetches).toFixed(1)} ms` +
+        `${waits.every(Number.isFinite) ? `, of which waiting for the answer ${median(waits).toFixed(1)} ms` : ''}),` +
+        ` ${median(outside).toFixed(1)} ms from the test's mouse click`,
+    );
+
+    // Source and target far apart on screen.
+    let src = visible[0];
+    let dst = visible[0];
+    for (const a of visible) {
+      for (const b of visible) {
+        if (Math.hypot(a.x - b.x, a.y - b.y) > Math.hypot(src.x - dst.x, src.y - dst.y)) {
+          src = a;
+          dst = b;
+        }
+      }
+    }
+    let before = await seq('fieldSeq');
+    await clickAt(src);
+    await waitSeq('fieldSeq', before);
+    const picked = await page.evaluate((v) => {
+      const g = window.__geoprox;
+      const p = new g.THREE.Vector3(...v.position);
+      return { source: g.state.sources[0], off: g.lastPick.position.distanceTo(p), face: g.lastPick.face };
+    }, src);
+    check(picked.face === src.f && picked.off < 1e-3,
+      `the click hit the surface point aimed at, ${src.point} (page: ${picked.source}, ${picked.off.toExponential(2)} away)`);
+    const field = analyse(await page.screenshot());
+    check(field.viridisPixels > 0.03 * field.width * field.height && field.buckets >= 8,
+      `the field is coloured in viridis (${field.viridisPixels} pixels, ${field.buckets}/16 colours)`);
+
+    before = await seq('pathSeq');
+    await clickAt(dst, true);
+    await waitSeq('pathSeq', before);
+    const shown = await page.evaluate(() => {
+      const g = window.__geoprox;
+      return {
+        text: document.getElementById('distance').textContent,
+        exact: document.getElementById('exact').textContent,
+        latency: document.getElementById('latency').textContent,
+        source: g.state.distance.source,
+        target: g.state.distance.target,
+        ends: [g.state.distance.points[0].position, g.state.distance.points.slice(-1)[0].position],
+        mine: [g.pointPosition(g.state.distance.source), g.pointPosition(g.state.distance.target)],
+        url: window.location.href,
+      };
+    });
+    const q = new URLSearchParams({ source: shown.source, target: shown.target });
+    const daemonAnswer = await (await fetch(`${apiBase}/v1/meshes/${meshId}/distance?${q}`)).json();
+    const pageDistance = Number(shown.text);
+    check(
+      Number.isFinite(pageDistance) && Math.abs(pageDistance - daemonAnswer.distance) <= 1e-9,
+      `#distance ${shown.text} (${shown.exact}, ${shown.latency}) = the daemon's ${daemonAnswer.distance} ` +
+        `for ${shown.source} -> ${shown.target}`,
+    );
+
+    const gap = Math.max(...[0, 1].map((k) => Math.hypot(...[0, 1, 2].map((c) => shown.ends[k][c] - shown.mine[k][c]))));
+    check(gap < 1e-6, `the path's ends from the daemon are the page's source and target (${gap.toExponential(2)} apart)`);
+
+    const png = await page.screenshot({ path: screenshotPath });
+    const withPath = analyse(png);
+    check(withPath.pathPixels > 100 && withPath.pathExtent > 50 && field.pathPixels < 20,
+      `the path is drawn (${withPath.pathPixels} path pixels over ${withPath.pathExtent} px; ${field.pathPixels} before)`);
+    check(withPath.viridisPixels > 0.03 * withPath.width * withPath.height, 'the field is still coloured');
+    console.log(`screenshot: ${screenshotPath}`);
+
+    // The state in the URL: a new page on it shows the same distance.
+    const page2 = await browser.newPage();
+    await page2.goto(shown.url);
+    await page2.waitForFunction(() => window.__geoprox && window.__geoprox.pathSeq >= 1, { timeout: 30000 });
+    const again = await page2.$eval('#distance', (e) => e.textContent);
+    check(again === shown.text, `the page's URL restores the view (distance ${again})`);
+    await page2.close();
+
+    // Several sources, coloured by nearest source.
+    before = await seq('fieldSeq');
+    await page.keyboard.down('Alt');
+    await page.mouse.click(visible[3].x, visible[3].y);
+    await page.keyboard.up('Alt');
+    await waitSeq('fieldSeq', before);
+    const multi = await page.evaluate(() => ({
+      n: window.__geoprox.state.sources.length,
+      colour: document.getElementById('colour').value,
+      nearest: Array.from(new Set(window.__geoprox.mesh.geometry.attributes.nearest.array)).sort(),
+    }));
+    check(multi.n === 2 && multi.colour === 'nearest' && multi.nearest.includes(0) && multi.nearest.includes(1),
+      `alt-click adds a second source, coloured by nearest source (${JSON.stringify(multi)})`);
+
+    // Errors shown plainly: an unreachable server.
+    const page3 = await browser.newPage();
+    await page3.goto(`http://127.0.0.1:${staticPort}/?api=${encodeURIComponent(`http://127.0.0.1:${deadPort}`)}`);
+    await page3.waitForFunction(() => !document.getElementById('error').hidden, { timeout: 20000 });
+    const err = await page3.$eval('#error', (e) => e.textContent);
+    check(/Cannot reach the geoprox server/.test(err), `an unreachable server is reported: "${err}"`);
+    await page3.close();
+
+    check(pageErrors.length === 0, `no errors in the page's console${pageErrors.length ? ': ' + pageErrors.join(' | ') : ''}`);
+  } finally {
+    if (browser) await browser.close();
+    if (server) server.close();
+    daemon.kill('SIGTERM');
+    await new Promise((r) => (daemonExited ? r() : daemon.on('exit', r)));
+    if (!keep) fs.rmSync(tmp, { recursive: true, force: true });
+    else console.log(`kept ${tmp}`);
+  }
+}
+
+main().then(
+  () => {
+    console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+    process.exit(failures ? 1 : 0);
+  },
+  (e) => {
+    console.error(`error: ${e.stack || e}`);
+    process.exit(2);
+  },
+);
