@@ -32,7 +32,13 @@ const api = new Api(state.api, sessionStorage.getItem('geoprox-token') || '');
 
 // ---------------------------------------------------------------- three.js scene
 const view = $('view');
-const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+let renderer;
+try {
+  renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+} catch (e) {
+  showError(`This browser gives no WebGL 2 context, which the viewer needs: ${e.message}`);
+  throw e;
+}
 renderer.setPixelRatio(window.devicePixelRatio || 1);
 renderer.setClearColor(0x1b1d22);
 view.appendChild(renderer.domElement);
@@ -359,7 +365,8 @@ renderer.domElement.addEventListener('pointerup', (e) => {
   } else {
     if (e.altKey || $('add-sources').checked) state.sources.push(hit.point);
     else state.sources = [hit.point];
-    renderMarkers();
+    renderMarkers(false); // drawn with the field, one frame instead of two on the way
+
     writeUrl();
     updateField(t0).then(() => (state.target ? updatePath() : null));
   }
@@ -383,7 +390,7 @@ function pointPosition(p) {
   return null;
 }
 
-function renderMarkers() {
+function renderMarkers(render = true) {
   markers.clear();
   if (!mesh) return;
   const r = meshDiag * 0.006;
@@ -405,7 +412,7 @@ function renderMarkers() {
     }
   }
   $('sources').textContent = state.sources.length ? `${state.sources.length}` : 'none';
-  requestRender();
+  if (render) requestRender();
 }
 
 // ---------------------------------------------------------------- field
@@ -460,6 +467,7 @@ async function updateField(t0 = performance.now()) {
     if ($('error').dataset.kind === 'field') showError('');
   } catch (e) {
     if (my !== fieldRequest) return;
+    requestRender();
     showError(`Field: ${e.message}`);
     $('error').dataset.kind = 'field';
     hook.fieldErrors++;
@@ -639,6 +647,7 @@ if (state.colour) $('colour').value = state.colour;
 const hook = {
   THREE,
   camera,
+  scene,
   controls,
   renderer,
   state,

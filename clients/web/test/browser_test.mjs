@@ -153,6 +153,9 @@ async function main() {
   if (!fs.existsSync(path.join(distDir, 'index.html'))) throw new Error('no dist/: run `npm run build` first');
   if (!fs.existsSync(chromium)) throw new Error(`no Chromium at ${chromium} (apt-get install chromium)`);
 
+  // The daemon wants a query token: the page must send it (entered in its token field).
+  const token = `web-test-${process.pid}-${Date.now()}`;
+  const auth = { headers: { Authorization: `Bearer ${token}` } };
   const tmp = fs.mkdtempSync(path.join(os.tmpdir(), 'geoprox-web-'));
   const [port, httpPort, staticPort, deadPort] = await freePorts(4);
   const cfg = {
@@ -166,6 +169,7 @@ async function main() {
     data_dir: path.join(repoRoot, 'data'),
     graph_dir: path.join(tmp, 'graphs'),
     log_level: 'warn',
+    query_token: token,
     meshes: [
       { id: 'spot', mesh: 'meshes/spot.obj' },
       { id: 'dragon', mesh: 'meshes/ChineseDragon-10kv.off' },
@@ -188,7 +192,7 @@ async function main() {
       if (daemonExited) throw new Error(`geoproxd exited: ${fs.readFileSync(path.join(tmp, 'geoproxd.log'), 'utf8')}`);
       if (Date.now() - t0 > 180000) throw new Error('geoproxd not ready in 180 s');
       try {
-        const list = await (await fetch(`${apiBase}/v1/meshes`)).json();
+        const list = await (await fetch(`${apiBase}/v1/meshes`, auth)).json();
         const m = list.meshes.find((x) => x.id === meshId);
         if (m && m.state === 'ready') break;
       } catch {
@@ -218,7 +222,14 @@ async function main() {
       if (m.type() === 'error') pageErrors.push(m.text());
     });
     await page.goto(pageUrl);
+    // Without the token: a plain error; with it typed in the field, the mesh loads.
+    await page.waitForFunction(() => !document.getElementById('error').hidden, { timeout: 20000 });
+    const noToken = await page.$eval('#error', (e) => e.textContent);
+    check(/query token/.test(noToken), `without the token the page says so: "${noToken}"`);
+    await page.type('#token', token);
+    await page.keyboard.press('Enter');
     await page.waitForFunction(() => window.__geoprox && window.__geoprox.meshSeq >= 1, { timeout: 60000 });
+    pageErrors.length = 0; // the 401s before the token was entered were expected
     const glInfo = await page.evaluate(() => {
       const gl = window.__geoprox.renderer.getContext();
       const ext = gl.getExtension('WEBGL_debug_renderer_info');
@@ -267,6 +278,22 @@ async function main() {
       }
     };
     const seq = (key) => page.evaluate((k) => window.__geoprox[k], key);
+
+    // The cost of one frame in this browser (software WebGL here).
+    const frameMs = await page.evaluate(() => {
+      const g = window.__geoprox;
+      const gl = g.renderer.getContext();
+      const px = new Uint8Array(4);
+      const t = [];
+      for (let i = 0; i < 11; i++) {
+        const a = performance.now();
+        g.renderer.render(g.scene, g.camera);
+        gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+        t.push(performance.now() - a);
+      }
+      return t.sort((x, y) => x - y)[5];
+    });
+    console.log(`one frame (render + readPixels), median of 11: ${frameMs.toFixed(1)} ms`);
 
     // Click-to-coloured-field, 20 clicks on visible vertices.
     const inPage = [];
@@ -337,7 +364,7 @@ async function main() {
       };
     });
     const q = new URLSearchParams({ source: shown.source, target: shown.target });
-    const daemonAnswer = await (await fetch(`${apiBase}/v1/meshes/${meshId}/distance?${q}`)).json();
+    const daemonAnswer = await (await fetch(`${apiBase}/v1/meshes/${meshId}/distance?${q}`, auth)).json();
     const pageDistance = Number(shown.text);
     check(
       Number.isFinite(pageDistance) && Math.abs(pageDistance - daemonAnswer.distance) <= 1e-9,
@@ -357,6 +384,7 @@ async function main() {
 
     // The state in the URL: a new page on it shows the same distance.
     const page2 = await browser.newPage();
+    await page2.evaluateOnNewDocument((t) => sessionStorage.setItem('geoprox-token', t), token);
     await page2.goto(shown.url);
     await page2.waitForFunction(() => window.__geoprox && window.__geoprox.pathSeq >= 1, { timeout: 30000 });
     const again = await page2.$eval('#distance', (e) => e.textContent);
