@@ -225,6 +225,7 @@ async function main() {
     // Without the token: a plain error; with it typed in the field, the mesh loads.
     await page.waitForFunction(() => !document.getElementById('error').hidden, { timeout: 20000 });
     const noToken = await page.$eval('#error', (e) => e.textContent);
+    if (/WebGL/.test(noToken)) throw new Error(`${noToken} (try other flags in GEOPROX_WEB_GL)`);
     check(/query token/.test(noToken), `without the token the page says so: "${noToken}"`);
     await page.type('#token', token);
     await page.keyboard.press('Enter');
@@ -296,6 +297,7 @@ async function main() {
     console.log(`one frame (render + readPixels), median of 11: ${frameMs.toFixed(1)} ms`);
 
     // Click-to-coloured-field, 20 clicks on visible vertices.
+    await page.evaluate(() => (window.__geoprox.syncFrames = true));
     const inPage = [];
     const outside = [];
     const fetches = [];
@@ -317,10 +319,12 @@ async function main() {
     }
     console.log(
       `click to coloured field on ${meshId}, median of ${clicks}: ${median(inPage).toFixed(1)} ms in the page` +
-        ` (pointerup to the frame drawn; the fetch alone ${median(fetches).toFixed(1)} ms` +
+        ` (pointerup to the frame drawn, synced by readPixels; the fetch alone ${median(fetches).toFixed(1)} ms` +
         `${waits.every(Number.isFinite) ? `, of which waiting for the answer ${median(waits).toFixed(1)} ms` : ''}),` +
         ` ${median(outside).toFixed(1)} ms from the test's mouse click`,
     );
+
+    await page.evaluate(() => (window.__geoprox.syncFrames = false));
 
     // Source and target far apart on screen.
     let src = visible[0];
