@@ -395,6 +395,21 @@ async function main() {
     check(again === shown.text, `the page's URL restores the view (distance ${again})`);
     await page2.close();
 
+    // The cutoff slider greys what is beyond it, and the legend says so in mesh units.
+    const setSlider = (v) =>
+      page.evaluate(async (v) => {
+        const el = document.getElementById('cutoff');
+        el.value = String(v);
+        el.dispatchEvent(new Event('input'));
+        await window.__geoprox.nextFrame();
+        return document.getElementById('legend-note').textContent;
+      }, v);
+    const legend = await setSlider(300);
+    const cut = analyse(await page.screenshot());
+    check(cut.viridisPixels < 0.8 * withPath.viridisPixels && /cutoff/.test(legend),
+      `the cutoff slider at 30% greys the far field (${cut.viridisPixels} viridis pixels; legend "${legend}")`);
+    await setSlider(1000);
+
     // Several sources, coloured by nearest source.
     before = await seq('fieldSeq');
     await page.keyboard.down('Alt');
