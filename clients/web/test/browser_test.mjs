@@ -215,6 +215,23 @@ async function main() {
       ],
       defaultViewport: { width: 1100, height: 720 },
     });
+    // A mesh still building (the other sample mesh, when its graph is not built yet): the page
+    // opened on it says so, and opens it by itself once it is ready.
+    const other = meshId === 'spot' ? 'dragon' : 'spot';
+    const otherState = (await (await fetch(`${apiBase}/v1/meshes`, auth)).json()).meshes.find((m) => m.id === other);
+    let buildingPage = null;
+    let buildingText = '';
+    if (otherState && otherState.state !== 'ready') {
+      buildingPage = await browser.newPage();
+      await buildingPage.evaluateOnNewDocument((t) => sessionStorage.setItem('geoprox-token', t), token);
+      await buildingPage.goto(`http://127.0.0.1:${staticPort}/?api=${encodeURIComponent(apiBase)}&mesh=${other}`);
+      await buildingPage.waitForFunction(
+        () => !document.getElementById('error').hidden || (window.__geoprox && window.__geoprox.meshSeq >= 1),
+        { timeout: 30000 },
+      );
+      buildingText = await buildingPage.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
+    }
+
     const page = await browser.newPage();
     const pageErrors = [];
     page.on('pageerror', (e) => pageErrors.push(String(e)));
@@ -431,6 +448,17 @@ async function main() {
     const err = await page3.$eval('#error', (e) => e.textContent);
     check(/Cannot reach the geoprox server/.test(err), `an unreachable server is reported: "${err}"`);
     await page3.close();
+
+    if (buildingPage) {
+      await buildingPage.bringToFront(); // frames (and so the hook's counters) run in the front tab only
+      await buildingPage.waitForFunction(() => window.__geoprox.meshSeq >= 1, { timeout: 60000 });
+      check(/still building/.test(buildingText) || buildingText === '',
+        `a page opened on ${other} while it was ${otherState.state} said "${buildingText || '(nothing: ready first)'}"` +
+          ' and opened it once ready');
+      await buildingPage.close();
+    } else {
+      console.log(`skip the "still building" check: ${other} was ready before the page opened`);
+    }
 
     check(pageErrors.length === 0, `no errors in the page's console${pageErrors.length ? ': ' + pageErrors.join(' | ') : ''}`);
   } finally {
