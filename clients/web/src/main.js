@@ -225,15 +225,22 @@ function renderMeshList() {
     if (m.state !== 'ready' && m.state !== 'failed' && m.progress != null) {
       st += ` ${Math.round(m.progress * 100)}%${m.phase ? ' (' + m.phase + ')' : ''}`;
     }
-    if (m.state === 'failed' && m.error) st += `: ${m.error.message || m.error}`;
-    for (const text of [m.id, st, m.faces]) {
+    const why = m.state === 'failed' && m.error ? String(m.error.message || m.error) : '';
+    if (why) {
+      // The short reason in the row ("[NonManifoldVertex]"), all of it on hover and on click.
+      const reason = why.match(/\[([A-Za-z]+)\]/);
+      st += reason ? ` (${reason[1]})` : '';
+      tr.title = why;
+    }
+    for (const text of [m.id, st, m.state === 'failed' ? '' : m.faces]) {
       const td = document.createElement('td');
       td.textContent = text;
       tr.appendChild(td);
     }
     tr.addEventListener('click', () => {
       if (m.state === 'ready' && m.id !== state.mesh) loadMesh(m.id, { keepState: false });
-      else if (m.state !== 'ready') showError(`Mesh ${m.id} is ${m.state}; it can be opened once it is ready.`);
+      else if (m.state === 'failed') showError(`Mesh ${m.id} failed: ${why}`);
+      else if (m.state !== 'ready') showError(`Mesh ${m.id} is ${m.state}; it opens once it is ready.`);
     });
     body.appendChild(tr);
   }
@@ -362,6 +369,7 @@ renderer.domElement.addEventListener('pointerup', (e) => {
   const hit = pick(e.clientX, e.clientY);
   if (!hit) return;
   hook.lastPick = hit;
+  showError(''); // a new question: the last one's error goes
   if (e.shiftKey) {
     state.target = hit.point;
     renderMarkers();
