@@ -424,6 +424,30 @@ async function main() {
     check(again === shown.text, `the page's URL restores the view (distance ${again})`);
     await page2.close();
 
+    // An orbit (a drag) goes into the URL's camera, and a new tab on that URL has that camera.
+    await page.bringToFront();
+    const from = visible[Math.floor(visible.length / 2)];
+    await page.mouse.move(from.x, from.y);
+    await page.mouse.down();
+    for (let k = 1; k <= 8; k++) await page.mouse.move(from.x + 15 * k, from.y + 4 * k);
+    await page.mouse.up();
+    const orbit = await page.evaluate(() => ({
+      url: window.location.href,
+      cam: window.__geoprox.camera.position.toArray(),
+    }));
+    const camParam = new URL(orbit.url).searchParams.get('camera') || '';
+    const page4 = await browser.newPage();
+    await page4.evaluateOnNewDocument((t) => sessionStorage.setItem('geoprox-token', t), token);
+    await page4.goto(orbit.url);
+    await page4.waitForFunction(() => window.__geoprox && window.__geoprox.pathSeq >= 1, { timeout: 30000 });
+    const cam4 = await page4.evaluate(() => window.__geoprox.camera.position.toArray());
+    await page4.close();
+    await page.bringToFront();
+    const camGap = Math.hypot(...[0, 1, 2].map((c) => cam4[c] - orbit.cam[c]));
+    const moved = shown.url !== orbit.url;
+    check(moved && camParam.split(',').length === 6 && camGap < 1e-4,
+      `an orbit updates the URL (camera=${camParam}) and a new tab on it has the same camera (${camGap.toExponential(1)} apart)`);
+
     // The cutoff slider greys what is beyond it, and the legend says so in mesh units.
     const setSlider = (v) =>
       page.evaluate(async (v) => {
