@@ -179,8 +179,15 @@ async function main() {
       { id: 'dragon', mesh: 'meshes/ChineseDragon-10kv.off' },
       // Refused on purpose (a non-manifold vertex, data/meshes/README.md): a failed mesh in the list.
       { id: 'pig', mesh: 'meshes/pig.stl' },
+      // Two tetrahedra apart: a target on the other one is Unreachable.
+      { id: 'twins', mesh: path.join(tmp, 'twins.obj') },
     ],
   };
+  fs.writeFileSync(
+    path.join(tmp, 'twins.obj'),
+    ['v 0 0 0', 'v 1 0 0', 'v 0 1 0', 'v 0 0 1', 'v 2 0 0', 'v 3 0 0', 'v 2 1 0', 'v 2 0 1',
+      'f 1 3 2', 'f 1 2 4', 'f 2 3 4', 'f 1 4 3', 'f 5 7 6', 'f 5 6 8', 'f 6 7 8', 'f 5 8 7', ''].join('\n'),
+  );
   if (meshFile) {
     cfg.data_dir = path.dirname(path.resolve(meshFile));
     cfg.meshes = [{ id: meshId, mesh: path.basename(meshFile) }];
@@ -486,7 +493,41 @@ async function main() {
     await page3.close();
 
     if (!meshFile) {
+      // Another component: the field does not reach it, a path to it is Unreachable, said plainly.
       await page.bringToFront();
+      const seq0 = await seq('meshSeq');
+      await page.waitForFunction(() => /twins\s*ready/.test(document.getElementById('meshes').textContent), { timeout: 60000 });
+      await page.click('#meshes tr[data-id="twins"]');
+      await waitSeq('meshSeq', seq0);
+      const twins = await page.evaluate(() => {
+        const g = window.__geoprox;
+        const out = [];
+        for (let f = 0; f < 8; f++) {
+          const s = g.screenOf(`f:${f}:0.4:0.3:0.3`);
+          if (s.visible) out.push({ f, x: s.x, y: s.y });
+        }
+        return out;
+      });
+      const a = twins.find((t) => t.f < 4);
+      const b = twins.find((t) => t.f >= 4);
+      if (!check(a && b, `both tetrahedra of twins are visible (${twins.map((t) => t.f).join(' ')})`)) return;
+      let before2 = await seq('fieldSeq');
+      await clickAt(a);
+      await waitSeq('fieldSeq', before2);
+      before2 = await seq('pathErrors');
+      await clickAt(b, true);
+      await waitSeq('pathErrors', before2);
+      const un = await page.evaluate(() => ({
+        error: document.getElementById('error').textContent,
+        distance: document.getElementById('distance').textContent,
+        dist: Array.from(window.__geoprox.mesh.geometry.attributes.dist.array),
+      }));
+      check(/Unreachable/.test(un.error) && un.distance === '-' && un.dist.slice(4).every((d) => d === -1) &&
+        un.dist.slice(0, 4).every((d) => d >= 0),
+        `a target on another component: "${un.error}"; the field leaves that component grey`);
+      pageErrors.splice(0, pageErrors.length, ...pageErrors.filter((e) => !/status of 422/.test(e)));
+
+
       await page.waitForFunction(() => /pig\s*failed/.test(document.getElementById('meshes').textContent), { timeout: 30000 });
       const pigRow = await page.$eval('#meshes tr[data-id="pig"]', (e) => e.textContent);
       await page.click('#meshes tr[data-id="pig"]');
