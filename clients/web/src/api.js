@@ -41,7 +41,7 @@ export class Api {
         reason: 'NetworkError',
       });
     }
-    if (!res.ok) throw await ApiError_from(res);
+    if (!res.ok) throw await errorFrom(res);
     return res;
   }
 
@@ -64,7 +64,7 @@ export class Api {
   }
 }
 
-async function ApiError_from(res) {
+async function errorFrom(res) {
   let body = null;
   let text = '';
   try {
