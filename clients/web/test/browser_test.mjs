@@ -96,7 +96,10 @@ function serveDist(port) {
     res.writeHead(200, { 'Content-Type': TYPES[path.extname(file)] || 'application/octet-stream' });
     fs.createReadStream(file).pipe(res);
   });
-  return new Promise((resolve) => server.listen(port, '127.0.0.1', () => resolve(server)));
+  return new Promise((resolve, reject) => {
+    server.on('error', reject);
+    server.listen(port, '127.0.0.1', () => resolve(server));
+  });
 }
 
 // ---------------------------------------------------------------- pixels
@@ -200,6 +203,7 @@ async function main() {
   });
   let daemonExited = false;
   daemon.on('exit', () => (daemonExited = true));
+  process.on('exit', () => daemonExited || daemon.kill('SIGKILL')); // never leave it behind
   const apiBase = `http://127.0.0.1:${httpPort}`;
   let server = null;
   let browser = null;
