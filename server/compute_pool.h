@@ -12,6 +12,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace geoprox::server {
@@ -35,6 +36,13 @@ class ComputePool {
   bool try_submit(Task task);
   /// Queues `task` whatever the backlog.
   void submit(Task task);
+  /// A request's task: admin work (`admin`) is queued whatever the backlog (submit), a query
+  /// only while the queue has room (try_submit). False: refused.
+  bool submit_request(Task task, bool admin) {
+    if (!admin) return try_submit(std::move(task));
+    submit(std::move(task));
+    return true;
+  }
 
   /// Runs `first` on the calling thread and `second` on an idle worker if one is waiting for
   /// work (else on the calling thread after `first`); returns once both are done and rethrows

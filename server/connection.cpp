@@ -216,12 +216,8 @@ void Connection::submit_to_pool(protocol::Call call, protocol::Method method,
     self->deliver(Finished{key, shared_call, method, std::move(context.mesh), received,
                            std::move(answer), nullptr});
   };
-  bool queued = true;
-  if (protocol::is_admin_method(method)) {
-    env_.pool.submit(std::move(task));
-  } else {
-    queued = env_.pool.try_submit(std::move(task));
-  }
+  const bool queued =
+      env_.pool.submit_request(std::move(task), protocol::is_admin_method(method));
   if (!queued) {
     end_pool_work(key);
     finish_request(*shared_call, method, "", received,
@@ -281,12 +277,7 @@ void Connection::submit_batch_to_pool(protocol::BatchCall batch, Clock::time_poi
     self->deliver(Finished{key, nullptr, protocol::Method::Batch, std::move(context.mesh),
                            received, std::move(answer), shared_batch});
   };
-  bool queued = true;
-  if (never_refused) {
-    env_.pool.submit(std::move(task));
-  } else {
-    queued = env_.pool.try_submit(std::move(task));
-  }
+  const bool queued = env_.pool.submit_request(std::move(task), never_refused);
   if (!queued) {
     end_pool_work(key);
     finish_batch(*shared_batch, "", received,

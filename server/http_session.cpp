@@ -238,12 +238,8 @@ void HttpSession::run(HttpWork work) {
                });
   };
   env_.metrics.in_flight.fetch_add(1, std::memory_order_relaxed);
-  bool queued = true;
-  if (protocol::is_admin_method(method)) {
-    env_.pool.submit(std::move(task));
-  } else {
-    queued = env_.pool.try_submit(std::move(task));
-  }
+  const bool queued =
+      env_.pool.submit_request(std::move(task), protocol::is_admin_method(method));
   if (!queued) {
     env_.metrics.in_flight.fetch_sub(1, std::memory_order_relaxed);
     ProtocolError error(ErrorReason::Overloaded, "compute queue full (" +

@@ -29,15 +29,15 @@ for f in bin/geoproxd bin/geoprox include/geoprox/geoprox_client.h include/geopr
          lib/cmake/geoprox/geoproxConfigVersion.cmake; do
   [ -e "$prefix/$f" ] || fail "cmake --install did not install $f (installed: $(cd "$prefix" && find . -type f | sort | tr '\n' ' '))"
 done
-if find "$prefix" -name '*geoprox_server*' | grep -q .; then
+if find "$prefix" -name '*geoprox_server*' | grep . >/dev/null; then
   fail "the server library was installed: $(find "$prefix" -name '*geoprox_server*')"
 fi
-if find "$prefix/include" -path '*server*' | grep -q .; then
+if find "$prefix/include" -path '*server*' | grep . >/dev/null; then
   fail "server headers were installed: $(find "$prefix/include" -path '*server*')"
 fi
 for private in window_propagation.h query_engine.h mesh_reader_support.h graph_file_format.h \
                graph_file_internal.h tuning.h; do
-  if find "$prefix/include" -name "$private" | grep -q .; then
+  if find "$prefix/include" -name "$private" | grep . >/dev/null; then
     fail "a private header was installed: $(find "$prefix/include" -name "$private")"
   fi
 done
