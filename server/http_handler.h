@@ -6,7 +6,8 @@
 // requests and batch arrays as the TCP port does, and the resource paths (/v1/meshes/...) take
 // the same params as the methods, from a JSON body or a query string, and answer their result
 // object, or its array in binary. Errors carry the JSON-RPC error object and the HTTP status of
-// their reason (protocol/http_api.h).
+// their reason (protocol/http_api.h). Any other path outside /v1/ is a file of the web viewer
+// (server/static_files.h), served without the query token.
 //
 // Threads: const, and safe to call from any thread; HttpWork::run runs on a compute thread.
 #pragma once
@@ -27,6 +28,7 @@
 #include "protocol/messages.h"
 #include "server/config.h"
 #include "server/service.h"
+#include "server/static_files.h"
 
 namespace geoprox::server {
 
@@ -60,7 +62,11 @@ struct HttpWork {
 
 class HttpHandler {
  public:
+  /// Throws ConfigError when config.http_static_dir names no directory.
   HttpHandler(const Config& config, const Service& service);
+
+  /// The web viewer's directory served at "/" (empty: none).
+  const std::filesystem::path& static_dir() const { return static_files_.root(); }
 
   /// The reply to `request`, or the work that makes it (never throws).
   std::variant<HttpReply, HttpWork> handle(const HttpRequest& request) const noexcept;
@@ -76,6 +82,7 @@ class HttpHandler {
   Shape shape_of(const HttpRequest& request) const;
   std::variant<HttpReply, HttpWork> route(const HttpRequest& request, const Shape& shape) const;
   using QueryParameters = std::vector<std::pair<std::string, std::string>>;
+  HttpReply static_reply(const Shape& shape, std::string_view path) const;
   HttpReply mesh_reply(const Shape& shape, const protocol::HttpRoute& route) const;
   HttpWork geometry_work(const Shape& shape, const std::string& mesh_id) const;
   HttpWork query_work(const HttpRequest& request, const Shape& shape,
@@ -94,6 +101,7 @@ class HttpHandler {
 
   const Config& config_;
   const Service& service_;
+  StaticFiles static_files_;
 };
 
 }  // namespace geoprox::server
