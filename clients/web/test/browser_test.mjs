@@ -1,24 +1,41 @@
-// Browser test of the viewer: geoproxd on the sample meshes, dist/ served by a tiny static server,
-// the page in headless Chromium (puppeteer-core). Clicks a source and shift-clicks a target at
+// Browser test of the viewer: geoproxd on the sample meshes, serving dist/ at "/" of its HTTP
+// listener (its default static directory, or --static-dir), the page loaded from the daemon in
+// headless Chromium (puppeteer-core). Clicks a source and shift-clicks a target at
 // computed screen positions, compares the distance the page shows with the daemon's own answer
 // (1e-9), checks the pixels (viridis field, path), saves a screenshot and times 20 clicks.
 //
 //   node test/browser_test.mjs --geoproxd PATH [--screenshot out.png] [--chromium /usr/bin/chromium]
 //                              [--clicks 20] [--mesh spot] [--keep]
 //                              [--mesh ID --mesh-file FILE [--ready-timeout SECONDS]]
+//                              [--static-dir DIR] [--graph-dir DIR]
+// Exit status: 0 all checks pass, 1 a check failed, 2 an error (a timeout, the daemon exited),
+// 77 (ctest's skip) when what it needs is missing: node_modules, dist/, Chromium.
 // Environment instead of flags: GEOPROXD, CHROMIUM, GEOPROX_WEB_SCREENSHOT, GEOPROX_WEB_GL
 // (extra Chromium flags for WebGL, space-separated; default --use-angle=swiftshader
 // --enable-unsafe-swiftshader).
 import { spawn } from 'node:child_process';
 import fs from 'node:fs';
-import http from 'node:http';
 import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import puppeteer from 'puppeteer-core';
-import { PNG } from 'pngjs';
 import { viridis } from '../src/viridis.js';
+
+const SKIP = 77;
+/** Exits with ctest's skip code and a one-line reason. */
+function skip(reason) {
+  console.log(`skip: ${reason}`);
+  process.exit(SKIP);
+}
+// Loaded here, not imported statically, so that a missing node_modules is a skip, not a crash.
+let puppeteer;
+let PNG;
+try {
+  puppeteer = (await import('puppeteer-core')).default;
+  ({ PNG } = await import('pngjs'));
+} catch (e) {
+  skip(`no clients/web/node_modules (scripts/install-deps runs npm ci there): ${e.code || e}`);
+}
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const webDir = path.resolve(here, '..');
@@ -39,6 +56,10 @@ const meshId = arg('mesh', null, 'spot');
 const keep = process.argv.includes('--keep');
 // Another mesh than the samples (lucy, a subdivided lucy): served alone, under --mesh's id.
 const meshFile = arg('mesh-file', null, '');
+// The daemon's static directory; default: its own default (the build tree's clients/web/dist).
+const staticDir = arg('static-dir', null, '');
+// Graphs kept between runs (a big mesh's build takes minutes); default: a temp dir.
+const graphDir = arg('graph-dir', null, '');
 const readyTimeoutS = Number(arg('ready-timeout', null, '180'));
 const glFlags = (arg('gl', 'GEOPROX_WEB_GL', '--use-angle=swiftshader --enable-unsafe-swiftshader'))
   .split(/\s+/)
@@ -72,34 +93,6 @@ async function freePorts(n) {
   const ports = servers.map((s) => s.address().port);
   await Promise.all(servers.map((s) => new Promise((r) => s.close(r))));
   return ports;
-}
-
-// ---------------------------------------------------------------- static server of dist/
-const TYPES = {
-  '.html': 'text/html; charset=utf-8',
-  '.js': 'text/javascript; charset=utf-8',
-  '.css': 'text/css; charset=utf-8',
-  '.png': 'image/png',
-  '.svg': 'image/svg+xml',
-  '.json': 'application/json',
-};
-function serveDist(port) {
-  const server = http.createServer((req, res) => {
-    const urlPath = decodeURIComponent(new URL(req.url, 'http://x').pathname);
-    const rel = urlPath === '/' ? 'index.html' : urlPath.replace(/^\/+/, '');
-    const file = path.resolve(distDir, rel);
-    if (!file.startsWith(distDir + path.sep) || !fs.existsSync(file) || !fs.statSync(file).isFile()) {
-      res.writeHead(404, { 'Content-Type': 'text/plain' });
-      res.end('not found');
-      return;
-    }
-    res.writeHead(200, { 'Content-Type': TYPES[path.extname(file)] || 'application/octet-stream' });
-    fs.createReadStream(file).pipe(res);
-  });
-  return new Promise((resolve, reject) => {
-    server.on('error', reject);
-    server.listen(port, '127.0.0.1', () => resolve(server));
-  });
 }
 
 // ---------------------------------------------------------------- pixels
@@ -157,24 +150,26 @@ async function main() {
   if (!geoproxd || !fs.existsSync(geoproxd)) {
     throw new Error('give the geoproxd binary: --geoproxd PATH or GEOPROXD=PATH');
   }
-  if (!fs.existsSync(path.join(distDir, 'index.html'))) throw new Error('no dist/: run `npm run build` first');
-  if (!fs.existsSync(chromium)) throw new Error(`no Chromium at ${chromium} (apt-get install chromium)`);
+  const servedDir = staticDir ? path.resolve(staticDir) : distDir;
+  if (!fs.existsSync(path.join(servedDir, 'index.html'))) {
+    skip(`no ${servedDir}/index.html (scripts/install-deps runs npm run build in clients/web)`);
+  }
+  if (!fs.existsSync(chromium)) skip(`no Chromium at ${chromium} (apt-get install chromium)`);
 
   // The daemon wants a query token: the page must send it (entered in its token field).
   const token = `web-test-${process.pid}-${Date.now()}`;
   const auth = { headers: { Authorization: `Bearer ${token}` } };
   const tmp = fs.mkdtempSync(path.join(os.tmpdir(), 'geoprox-web-'));
-  const [port, httpPort, staticPort, deadPort] = await freePorts(4);
+  const [port, httpPort, deadPort] = await freePorts(3);
   const cfg = {
     bind: '127.0.0.1',
     port,
     admin_port: 0,
     http_port: httpPort,
-    http_cors_origins: ['*'],
     compute_threads: 1,
     build_threads: 1,
     data_dir: path.join(repoRoot, 'data'),
-    graph_dir: path.join(tmp, 'graphs'),
+    graph_dir: graphDir ? path.resolve(graphDir) : path.join(tmp, 'graphs'),
     log_level: 'warn',
     query_token: token,
     meshes: [
@@ -196,6 +191,7 @@ async function main() {
     cfg.meshes = [{ id: meshId, mesh: path.basename(meshFile) }];
     cfg.build_threads = 0;
   }
+  if (staticDir) cfg.http_static_dir = path.resolve(staticDir);
   fs.writeFileSync(path.join(tmp, 'cfg.json'), JSON.stringify(cfg, null, 2));
   const daemonLog = fs.openSync(path.join(tmp, 'geoproxd.log'), 'w');
   const daemon = spawn(geoproxd, ['--config', path.join(tmp, 'cfg.json')], {
@@ -205,7 +201,6 @@ async function main() {
   daemon.on('exit', () => (daemonExited = true));
   process.on('exit', () => daemonExited || daemon.kill('SIGKILL')); // never leave it behind
   const apiBase = `http://127.0.0.1:${httpPort}`;
-  let server = null;
   let browser = null;
   try {
     // The daemon, ready, with the mesh's graph built.
@@ -225,8 +220,23 @@ async function main() {
     }
     console.log(`geoproxd ready on ${apiBase} in ${Date.now() - t0} ms`);
 
-    server = await serveDist(staticPort);
-    const pageUrl = `http://127.0.0.1:${staticPort}/?api=${encodeURIComponent(apiBase)}&mesh=${meshId}`;
+    // The page from the daemon itself: same origin, no api= and no CORS; no token for files.
+    const index = await fetch(`${apiBase}/`);
+    const indexText = await index.text();
+    check(index.status === 200 && index.headers.get('content-type') === 'text/html; charset=utf-8' &&
+      index.headers.get('cache-control') === 'no-cache' &&
+      indexText === fs.readFileSync(path.join(servedDir, 'index.html'), 'utf8'),
+    `geoproxd serves ${servedDir}/index.html at / without the token (HTTP ${index.status}, ` +
+      `${index.headers.get('content-type')}, Cache-Control ${index.headers.get('cache-control')})`);
+    const asset = indexText.match(/src="\.?\/?(assets\/[^"]+\.js)"/);
+    if (check(asset !== null, 'index.html names its script under assets/')) {
+      const script = await fetch(`${apiBase}/${asset[1]}`);
+      check(script.status === 200 && /^text\/javascript/.test(script.headers.get('content-type')) &&
+        script.headers.get('cache-control') === 'public, max-age=31536000, immutable',
+      `${asset[1]}: HTTP ${script.status}, ${script.headers.get('content-type')}, ` +
+        `Cache-Control ${script.headers.get('cache-control')}`);
+    }
+    const pageUrl = `${apiBase}/?mesh=${meshId}`;
     browser = await puppeteer.launch({
       executablePath: chromium,
       headless: true,
@@ -247,7 +257,7 @@ async function main() {
     if (otherState && otherState.state !== 'ready') {
       buildingPage = await browser.newPage();
       await buildingPage.evaluateOnNewDocument((t) => sessionStorage.setItem('geoprox-token', t), token);
-      await buildingPage.goto(`http://127.0.0.1:${staticPort}/?api=${encodeURIComponent(apiBase)}&mesh=${other}`);
+      await buildingPage.goto(`${apiBase}/?mesh=${other}`);
       await buildingPage.waitForFunction(
         () => !document.getElementById('error').hidden || (window.__geoprox && window.__geoprox.meshSeq >= 1),
         { timeout: 30000 },
@@ -490,7 +500,7 @@ async function main() {
 
     // Errors shown plainly: an unreachable server.
     const page3 = await browser.newPage();
-    await page3.goto(`http://127.0.0.1:${staticPort}/?api=${encodeURIComponent(`http://127.0.0.1:${deadPort}`)}`);
+    await page3.goto(`${apiBase}/?api=${encodeURIComponent(`http://127.0.0.1:${deadPort}`)}`);
     await page3.waitForFunction(() => !document.getElementById('error').hidden, { timeout: 20000 });
     const err = await page3.$eval('#error', (e) => e.textContent);
     check(/Cannot reach the geoprox server/.test(err), `an unreachable server is reported: "${err}"`);
@@ -554,7 +564,6 @@ async function main() {
     check(pageErrors.length === 0, `no errors in the page's console${pageErrors.length ? ': ' + pageErrors.join(' | ') : ''}`);
   } finally {
     if (browser) await browser.close();
-    if (server) server.close();
     daemon.kill('SIGTERM');
     await new Promise((r) => (daemonExited ? r() : daemon.on('exit', r)));
     if (!keep) fs.rmSync(tmp, { recursive: true, force: true });
