@@ -554,6 +554,7 @@ HttpReply HttpHandler::rpc_reply(const Shape& shape, std::optional<protocol::Met
 
 void HttpHandler::set_binary(HttpReply& reply, const Shape& shape,
                              protocol::BinaryArray array) const {
+  reply.no_gzip = array.dtype != protocol::Dtype::Uint32;
   reply.response.set("X-Geoprox-Dtype", std::string(protocol::dtype_name(array.dtype)));
   reply.response.set("X-Geoprox-Shape", protocol::shape_header(array.shape));
   if (shape.format == HttpFormat::Npy) {
@@ -624,7 +625,7 @@ HttpReply HttpHandler::finish(const Shape& shape, HttpReply reply) const {
                                          std::to_string(config_.limits.max_output_bytes) + ")"),
                        reply.method);
   }
-  if (shape.gzip && response.body().size() >= kMinGzipBytes &&
+  if (shape.gzip && !reply.no_gzip && response.body().size() >= kMinGzipBytes &&
       response.body().size() <= kMaxGzipBytes) {
     response.body() = gzip_compress(response.body());
     response.set(http::field::content_encoding, "gzip");

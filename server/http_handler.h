@@ -48,6 +48,9 @@ struct HttpReply {
   std::string mesh;                            ///< the mesh it ran on, once known
   bool close = false;                          ///< close the connection after it
   bool recorded = false;  ///< in the metrics already (a batch array's elements, each on its own)
+  /// Never gzipped: binary float arrays, which gzip shrinks little at a cost above the time the
+  /// bytes saved take on a fast link (docs/http.md).
+  bool no_gzip = false;
 };
 
 /// Work for a compute thread: runs the request under `context` and builds its reply.

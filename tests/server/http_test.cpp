@@ -486,6 +486,19 @@ TEST_F(HttpTest, CorsForConfiguredOriginsOnlyAndGzipWhenAccepted) {
   EXPECT_EQ(gzipped.header("content-encoding"), "gzip");
   EXPECT_LT(gzipped.body.size(), plain.body.size());
   EXPECT_EQ(gunzip(gzipped.body), plain.body);
+  // Binary float arrays are sent as they are (gzip gains little on them); uint32 ones gzipped.
+  const HttpResponse floats =
+      http.request("GET", "/v1/meshes/spot/field?source=v:3&dtype=float32", "",
+                   {"Accept-Encoding: gzip", "Accept: application/octet-stream"});
+  ASSERT_EQ(floats.status, 200);
+  EXPECT_EQ(floats.header("content-encoding"), "");
+  EXPECT_EQ(floats.body.size(), 4 * 2930u);
+  const HttpResponse nearest =
+      http.request("GET", "/v1/meshes/spot/field?sources=v:3&sources=v:900&array=nearest_source",
+                   "", {"Accept-Encoding: gzip", "Accept: application/octet-stream"});
+  ASSERT_EQ(nearest.status, 200) << nearest.body;
+  EXPECT_EQ(nearest.header("content-encoding"), "gzip");
+  EXPECT_EQ(gunzip(nearest.body).size(), 4 * 2930u);
   EXPECT_EQ(http.request("GET", "/v1/meshes", "", {"Accept-Encoding: gzip;q=0"})
                 .header("content-encoding"),
             "");
