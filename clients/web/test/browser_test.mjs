@@ -61,6 +61,9 @@ const staticDir = arg('static-dir', null, '');
 // Graphs kept between runs (a big mesh's build takes minutes); default: a temp dir.
 const graphDir = arg('graph-dir', null, '');
 const readyTimeoutS = Number(arg('ready-timeout', null, '180'));
+// How long a click may take to show its field or path: a frame of a big mesh takes seconds in
+// software WebGL.
+const waitMs = meshFile ? 180000 : 30000;
 const glFlags = (arg('gl', 'GEOPROX_WEB_GL', '--use-angle=swiftshader --enable-unsafe-swiftshader'))
   .split(/\s+/)
   .filter(Boolean);
@@ -320,7 +323,7 @@ async function main() {
     };
     const waitSeq = async (key, before) => {
       try {
-        await page.waitForFunction((k, b) => window.__geoprox[k] > b, { timeout: 30000 }, key, before);
+        await page.waitForFunction((k, b) => window.__geoprox[k] > b, { timeout: waitMs }, key, before);
       } catch (e) {
         const why = await page.evaluate(() => ({
           error: document.getElementById('error').textContent,
@@ -399,10 +402,16 @@ async function main() {
     const picked = await page.evaluate((v) => {
       const g = window.__geoprox;
       const p = new g.THREE.Vector3(...v.position);
-      return { source: g.state.sources[0], off: g.lastPick.position.distanceTo(p), face: g.lastPick.face };
+      g.mesh.geometry.computeBoundingBox();
+      const size = g.mesh.geometry.boundingBox.getSize(new g.THREE.Vector3()).length();
+      return { source: g.state.sources[0], off: g.lastPick.position.distanceTo(p), face: g.lastPick.face, size };
     }, src);
-    check(picked.face === src.f && picked.off < 1e-3,
-      `the click hit the surface point aimed at, ${src.point} (page: ${picked.source}, ${picked.off.toExponential(2)} away)`);
+    // Within 1e-3 of the mesh's size: where faces are smaller than a pixel the ray may hit a
+    // neighbour of the face aimed at (the page's point is what is compared with the daemon).
+    const pickTolerance = 1e-3 * Math.max(1, picked.size);
+    check(picked.off < pickTolerance,
+      `the click hit the surface point aimed at, ${src.point} (page: ${picked.source}, ` +
+        `${picked.off.toExponential(2)} away, tolerance ${pickTolerance.toExponential(1)})`);
     const field = analyse(await page.screenshot());
     check(field.viridisPixels > 0.03 * field.width * field.height && field.buckets >= 8,
       `the field is coloured in viridis (${field.viridisPixels} pixels, ${field.buckets}/16 colours)`);
@@ -420,6 +429,7 @@ async function main() {
         target: g.state.distance.target,
         ends: [g.state.distance.points[0].position, g.state.distance.points.slice(-1)[0].position],
         mine: [g.pointPosition(g.state.distance.source), g.pointPosition(g.state.distance.target)],
+        size: (g.mesh.geometry.computeBoundingBox(), g.mesh.geometry.boundingBox.getSize(new g.THREE.Vector3()).length()),
         url: window.location.href,
       };
     });
@@ -433,7 +443,10 @@ async function main() {
     );
 
     const gap = Math.max(...[0, 1].map((k) => Math.hypot(...[0, 1, 2].map((c) => shown.ends[k][c] - shown.mine[k][c]))));
-    check(gap < 1e-6, `the path's ends from the daemon are the page's source and target (${gap.toExponential(2)} apart)`);
+    // The page's points come from float32 positions: 1e-6 of the mesh's size.
+    const endTolerance = 1e-6 * Math.max(1, shown.size);
+    check(gap < endTolerance, `the path's ends from the daemon are the page's source and target ` +
+      `(${gap.toExponential(2)} apart, tolerance ${endTolerance.toExponential(1)})`);
 
     const png = await page.screenshot({ path: screenshotPath });
     const withPath = analyse(png);
@@ -446,7 +459,7 @@ async function main() {
     const page2 = await browser.newPage();
     await page2.evaluateOnNewDocument((t) => sessionStorage.setItem('geoprox-token', t), token);
     await page2.goto(shown.url);
-    await page2.waitForFunction(() => window.__geoprox && window.__geoprox.pathSeq >= 1, { timeout: 30000 });
+    await page2.waitForFunction(() => window.__geoprox && window.__geoprox.pathSeq >= 1, { timeout: waitMs });
     const again = await page2.$eval('#distance', (e) => e.textContent);
     check(again === shown.text, `the page's URL restores the view (distance ${again})`);
     await page2.close();
@@ -468,7 +481,7 @@ async function main() {
     const page4 = await browser.newPage();
     await page4.evaluateOnNewDocument((t) => sessionStorage.setItem('geoprox-token', t), token);
     await page4.goto(orbit.url);
-    await page4.waitForFunction(() => window.__geoprox && window.__geoprox.pathSeq >= 1, { timeout: 30000 });
+    await page4.waitForFunction(() => window.__geoprox && window.__geoprox.pathSeq >= 1, { timeout: waitMs });
     const cam4 = await page4.evaluate(() => window.__geoprox.camera.position.toArray());
     await page4.close();
     await page.bringToFront();
