@@ -2,6 +2,7 @@
 # geoprox command-line tool. docs/deployment.md is the manual (replicas, HAProxy, Kubernetes).
 #   docker build -t geoprox .
 #   docker run --rm --read-only -p 7878:7878 -p 7879:7879 -p 7880:7880 geoprox  # sample meshes
+#   (the web viewer: http://127.0.0.1:7880/; the image carries its built files, no Node.js)
 #   docker run --rm --read-only -v $PWD/my-config:/srv/geoprox/configs:ro \
 #              -v $PWD/my-data:/srv/geoprox/data:ro -v geoprox-graphs:/srv/geoprox/var geoprox
 # The config is /srv/geoprox/configs/geoproxd.json (deploy/geoproxd.json: binds 0.0.0.0, data in
@@ -24,6 +25,16 @@ RUN cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DGEOPROX_BUILD_BENCH=OFF \
  && cmake --build build -j"$(nproc)" \
  && ctest --test-dir build --output-on-failure -j"$(nproc)"
 
+# --- web: the viewer (clients/web) bundled by Vite; only its dist/ goes on ----------------
+FROM node:20-bookworm-slim AS web
+WORKDIR /web
+# The lock file first, in its own layer, so source changes do not reinstall the packages.
+COPY clients/web/package.json clients/web/package-lock.json ./
+RUN npm ci --no-audit --no-fund --loglevel=error
+COPY clients/web/index.html clients/web/vite.config.js ./
+COPY clients/web/src src
+RUN npm run build
+
 # --- runtime: shared libraries only, non-root ---------------------------------------------
 FROM debian:12-slim AS runtime
 SHELL ["/bin/bash", "-o", "pipefail", "-c"]
@@ -33,6 +44,8 @@ RUN /tmp/install-deps --runtime-only && rm -rf /var/lib/apt/lists/* /tmp/install
  && mkdir -p /srv/geoprox/var/graphs && chown -R geoprox:geoprox /srv/geoprox/var
 COPY --from=builder /src/build/server/geoproxd /usr/local/bin/geoproxd
 COPY --from=builder /src/build/clients/cli/geoprox /usr/local/bin/geoprox
+# Where geoproxd looks by default (../share/geoprox/web from its binary): served at "/".
+COPY --from=web /web/dist /usr/local/share/geoprox/web
 COPY data/meshes /srv/geoprox/data/meshes
 COPY deploy/geoproxd.json /srv/geoprox/configs/geoproxd.json
 WORKDIR /srv/geoprox

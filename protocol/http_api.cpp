@@ -197,8 +197,84 @@ HttpRoute route_http_path(std::string_view path) {
       }
     }
     route.mesh = std::string(mesh);
+  } else if (path != "/v1" && !path.starts_with("/v1/")) {
+    route.kind = HttpRoute::Kind::Static;
   }
   return route;
+}
+
+std::string static_file_path(std::string_view path) {
+  const auto refuse = [&](const std::string& why) {
+    return ProtocolError(ErrorReason::InvalidRequest,
+                         "path " + in_quotes(path) + ": " + why + " (not a file of the viewer)");
+  };
+  if (!path.starts_with('/')) throw refuse("it must start with \"/\"");
+  std::string decoded;
+  decoded.reserve(path.size());
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    char c = path[i];
+    if (c == '%') {
+      const int h = i + 1 < path.size() ? hex_value(path[i + 1]) : -1;
+      const int l = i + 2 < path.size() ? hex_value(path[i + 2]) : -1;
+      if (h < 0 || l < 0) throw refuse("\"%\" must be followed by two hex digits");
+      c = static_cast<char>(h * 16 + l);
+      if (c == '/' || c == '\\') throw refuse("an encoded \"/\" or \"\\\"");
+      i += 2;
+    }
+    if (c == '\\') throw refuse("a backslash");
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) throw refuse("a control byte");
+    decoded += c;
+  }
+  std::string_view rest = std::string_view(decoded).substr(1);
+  std::string file;
+  while (!rest.empty()) {
+    const std::size_t slash = rest.find('/');
+    const std::string_view segment = rest.substr(0, slash);
+    if (segment.empty()) throw refuse("an empty segment (\"//\")");
+    if (segment == "." || segment == "..") throw refuse("a \".\" or \"..\" segment");
+    if (segment.front() == '.') {
+      throw ProtocolError(ErrorReason::NotFound, "no file at " + in_quotes(path));
+    }
+    if (!file.empty()) file += '/';
+    file += segment;
+    rest = slash == std::string_view::npos ? std::string_view() : rest.substr(slash + 1);
+  }
+  if (decoded.ends_with('/')) file += file.empty() ? "index.html" : "/index.html";
+  return file;
+}
+
+std::string_view static_content_type(std::string_view file) {
+  struct Type {
+    std::string_view extension;
+    std::string_view type;
+  };
+  constexpr std::array kTypes = {
+      Type{".html", "text/html; charset=utf-8"},
+      Type{".js", "text/javascript; charset=utf-8"},
+      Type{".mjs", "text/javascript; charset=utf-8"},
+      Type{".css", "text/css; charset=utf-8"},
+      Type{".png", "image/png"},
+      Type{".svg", "image/svg+xml"},
+      Type{".json", "application/json"},
+      Type{".map", "application/json"},
+      Type{".wasm", "application/wasm"},
+      Type{".ico", "image/x-icon"},
+      Type{".txt", "text/plain; charset=utf-8"},
+  };
+  const std::size_t slash = file.rfind('/');
+  const std::string_view name = slash == std::string_view::npos ? file : file.substr(slash + 1);
+  const std::size_t dot = name.rfind('.');
+  if (dot != std::string_view::npos) {
+    const std::string extension = lower(name.substr(dot));
+    for (const Type& t : kTypes) {
+      if (t.extension == extension) return t.type;
+    }
+  }
+  return "application/octet-stream";
+}
+
+std::string_view static_cache_control(std::string_view file) {
+  return file.starts_with("assets/") ? "public, max-age=31536000, immutable" : "no-cache";
 }
 
 std::vector<std::pair<std::string, std::string>> parse_query_string(std::string_view query) {

@@ -30,7 +30,8 @@ struct HttpRoute {
     MeshInfo,  ///< /v1/meshes/{id}
     Query,     ///< /v1/meshes/{id}/distance|path|field|matrix|expmap|spline
     Geometry,  ///< /v1/meshes/{id}/geometry
-    Unknown,
+    Static,    ///< any other path outside /v1/: a file of the web viewer (static_file_path)
+    Unknown,   ///< an unknown path under /v1/
   };
   Kind kind = Kind::Unknown;
   std::string mesh;                 ///< MeshInfo, Query, Geometry
@@ -38,8 +39,25 @@ struct HttpRoute {
 };
 
 /// The route of `path` (the request target without its query string). A mesh id that is not
-/// valid (is_valid_mesh_id) makes the path Unknown.
+/// valid (is_valid_mesh_id) makes the path Unknown; a path outside /v1/ (and not a health
+/// check) is Static.
 HttpRoute route_http_path(std::string_view path);
+
+/// The file that a Static path names, relative to the static directory, '/'-separated and
+/// percent-decoded: "/" and any path ending in '/' name their "index.html". Throws
+/// ProtocolError(InvalidRequest) for what could reach outside the directory or is not a plain
+/// file name: a bad %-escape, an encoded '/' or '\\' (%2F, %5C), a backslash, a NUL or control
+/// byte, an empty, "." or ".." segment (encoded ones too), a path not starting with '/'.
+/// Throws ProtocolError(NotFound) for a segment starting with '.' (hidden files).
+std::string static_file_path(std::string_view path);
+
+/// The Content-Type of a static file, by its extension (.html .js .mjs .css .png .svg .json
+/// .wasm .ico .map .txt; anything else application/octet-stream).
+std::string_view static_content_type(std::string_view file);
+
+/// The Cache-Control of a static file: under "assets/" (content-hashed names, never changed in
+/// place) "public, max-age=31536000, immutable"; anything else (index.html) "no-cache".
+std::string_view static_cache_control(std::string_view file);
 
 /// Splits "a=1&b=x%20y" into decoded (name, value) pairs, in order ('+' is a space). Throws
 /// ProtocolError(InvalidParams) for a bad %-escape; names may repeat.

@@ -208,7 +208,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   Config config;
   const Reader top(document, origin);
   top.only({"bind", "port", "admin_bind", "admin_port", "http_bind", "http_port",
-            "http_cors_origins", "compute_threads", "io_threads",
+            "http_cors_origins", "http_static_dir", "compute_threads", "io_threads",
             "io_coalesce_us", "split_near_pairs", "build_threads", "data_dir", "graph_dir",
             "log_level", "log_json", "admin_token", "query_token", "shutdown_timeout_ms",
             "not_ready_retry_after_ms", "limits", "meshes"});
@@ -231,6 +231,12 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
       }
       config.http_cors_origins.push_back(entry.get<std::string>());
     }
+  }
+  if (top.find("http_static_dir") != nullptr) {
+    std::string static_dir;
+    top.string("http_static_dir", static_dir);
+    config.http_static_dir =
+        static_dir.empty() ? fs::path() : resolve(base_dir, static_dir);
   }
   top.integer("compute_threads", config.compute_threads, 0, 1024);
   top.integer("io_threads", config.io_threads, 1, 64);

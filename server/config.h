@@ -80,6 +80,10 @@ struct Config {
   std::uint16_t http_port = 7880;  ///< 0: no HTTP API (docs/http.md)
   /// Origins whose browser pages may call the HTTP API (CORS); "*" allows any. Empty: none.
   std::vector<std::string> http_cors_origins;
+  /// The web viewer's built files, served at "/" of the HTTP listener (server/static_files.h):
+  /// nullopt (the key absent) finds the installed or source-tree clients/web/dist; an empty
+  /// path serves none.
+  std::optional<std::filesystem::path> http_static_dir;
   unsigned compute_threads = 0;     ///< 0: std::thread::hardware_concurrency()
   unsigned io_threads = 1;
   /// Under load (4 requests per compute thread waiting), an I/O thread pauses this long (us)

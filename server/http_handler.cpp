@@ -46,6 +46,8 @@ std::string in_quotes(std::string_view text) {
 /// The methods a route answers, as the Allow header lists them.
 const char* allowed_methods(HttpRoute::Kind kind) {
   switch (kind) {
+    case HttpRoute::Kind::Static:
+      return "GET, HEAD";
     case HttpRoute::Kind::Rpc:
       return "POST, OPTIONS";
     case HttpRoute::Kind::Query:
@@ -56,6 +58,7 @@ const char* allowed_methods(HttpRoute::Kind kind) {
 }
 
 bool method_allowed(HttpRoute::Kind kind, http::verb verb) {
+  if (kind == HttpRoute::Kind::Static) return verb == http::verb::get || verb == http::verb::head;
   if (verb == http::verb::options) return true;
   switch (kind) {
     case HttpRoute::Kind::Rpc:
@@ -122,7 +125,9 @@ struct HttpHandler::Shape {
 };
 
 HttpHandler::HttpHandler(const Config& config, const Service& service)
-    : config_(config), service_(service) {}
+    : config_(config),
+      service_(service),
+      static_files_(static_dir_of(config), config.limits.max_output_bytes) {}
 
 HttpHandler::Shape HttpHandler::shape_of(const HttpRequest& request) const {
   Shape shape;
@@ -196,6 +201,9 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
     reply.method = protocol::Method::ServerHealth;
     return finish(shape, std::move(reply));
   }
+
+  // The viewer's files: no query token (the page asks for it and sends it to the API).
+  if (route.kind == HttpRoute::Kind::Static) return static_reply(shape, path);
 
   if (route.kind == HttpRoute::Kind::Healthz || route.kind == HttpRoute::Kind::Readyz) {
     HttpReply reply;
@@ -302,6 +310,16 @@ std::variant<HttpReply, HttpWork> HttpHandler::route(const HttpRequest& request,
       break;
   }
   throw ProtocolError(ErrorReason::Internal, "unrouted path " + in_quotes(path));
+}
+
+HttpReply HttpHandler::static_reply(const Shape& shape, std::string_view path) const {
+  StaticFile file = static_files_.read(path);
+  HttpReply reply;
+  reply.response.set(http::field::content_type, std::string(file.content_type));
+  reply.response.set(http::field::cache_control, std::string(file.cache_control));
+  reply.response.set("X-Content-Type-Options", "nosniff");
+  reply.response.body() = std::move(file.body);
+  return finish(shape, std::move(reply));
 }
 
 HttpReply HttpHandler::mesh_reply(const Shape& shape, const HttpRoute& route) const {
@@ -536,6 +554,7 @@ HttpReply HttpHandler::rpc_reply(const Shape& shape, std::optional<protocol::Met
 
 void HttpHandler::set_binary(HttpReply& reply, const Shape& shape,
                              protocol::BinaryArray array) const {
+  reply.no_gzip = array.dtype != protocol::Dtype::Uint32;
   reply.response.set("X-Geoprox-Dtype", std::string(protocol::dtype_name(array.dtype)));
   reply.response.set("X-Geoprox-Shape", protocol::shape_header(array.shape));
   if (shape.format == HttpFormat::Npy) {
@@ -588,7 +607,9 @@ HttpReply HttpHandler::finish(const Shape& shape, HttpReply reply) const {
   HttpResponse& response = reply.response;
   response.version(shape.version);
   response.set(http::field::server, "geoproxd/" GEOPROX_VERSION);
-  response.set(http::field::cache_control, "no-store");
+  if (response.find(http::field::cache_control) == response.end()) {
+    response.set(http::field::cache_control, "no-store");
+  }
   if (!shape.cors_origin.empty()) {
     response.set(http::field::access_control_allow_origin, shape.cors_origin);
     response.set(http::field::access_control_expose_headers, kExposedHeaders);
@@ -604,7 +625,7 @@ HttpReply HttpHandler::finish(const Shape& shape, HttpReply reply) const {
                                          std::to_string(config_.limits.max_output_bytes) + ")"),
                        reply.method);
   }
-  if (shape.gzip && response.body().size() >= kMinGzipBytes &&
+  if (shape.gzip && !reply.no_gzip && response.body().size() >= kMinGzipBytes &&
       response.body().size() <= kMaxGzipBytes) {
     response.body() = gzip_compress(response.body());
     response.set(http::field::content_encoding, "gzip");

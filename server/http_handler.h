@@ -6,7 +6,8 @@
 // requests and batch arrays as the TCP port does, and the resource paths (/v1/meshes/...) take
 // the same params as the methods, from a JSON body or a query string, and answer their result
 // object, or its array in binary. Errors carry the JSON-RPC error object and the HTTP status of
-// their reason (protocol/http_api.h).
+// their reason (protocol/http_api.h). Any other path outside /v1/ is a file of the web viewer
+// (server/static_files.h), served without the query token.
 //
 // Threads: const, and safe to call from any thread; HttpWork::run runs on a compute thread.
 #pragma once
@@ -27,6 +28,7 @@
 #include "protocol/messages.h"
 #include "server/config.h"
 #include "server/service.h"
+#include "server/static_files.h"
 
 namespace geoprox::server {
 
@@ -46,6 +48,9 @@ struct HttpReply {
   std::string mesh;                            ///< the mesh it ran on, once known
   bool close = false;                          ///< close the connection after it
   bool recorded = false;  ///< in the metrics already (a batch array's elements, each on its own)
+  /// Never gzipped: binary float arrays, which gzip shrinks little at a cost above the time the
+  /// bytes saved take on a fast link (docs/http.md).
+  bool no_gzip = false;
 };
 
 /// Work for a compute thread: runs the request under `context` and builds its reply.
@@ -60,7 +65,11 @@ struct HttpWork {
 
 class HttpHandler {
  public:
+  /// Throws ConfigError when config.http_static_dir names no directory.
   HttpHandler(const Config& config, const Service& service);
+
+  /// The web viewer's directory served at "/" (empty: none).
+  const std::filesystem::path& static_dir() const { return static_files_.root(); }
 
   /// The reply to `request`, or the work that makes it (never throws).
   std::variant<HttpReply, HttpWork> handle(const HttpRequest& request) const noexcept;
@@ -76,6 +85,7 @@ class HttpHandler {
   Shape shape_of(const HttpRequest& request) const;
   std::variant<HttpReply, HttpWork> route(const HttpRequest& request, const Shape& shape) const;
   using QueryParameters = std::vector<std::pair<std::string, std::string>>;
+  HttpReply static_reply(const Shape& shape, std::string_view path) const;
   HttpReply mesh_reply(const Shape& shape, const protocol::HttpRoute& route) const;
   HttpWork geometry_work(const Shape& shape, const std::string& mesh_id) const;
   HttpWork query_work(const HttpRequest& request, const Shape& shape,
@@ -94,6 +104,7 @@ class HttpHandler {
 
   const Config& config_;
   const Service& service_;
+  StaticFiles static_files_;
 };
 
 }  // namespace geoprox::server

@@ -151,6 +151,14 @@ void Server::Impl::start() {
                config.bind, acceptor.port(), address(config.http_bind, http_acceptor.port()),
                address(config.admin_bind, admin_acceptor.port()),
                pool->threads(), config.io_threads, config.meshes.size());
+  if (http_acceptor.is_open()) {
+    if (http_handler->static_dir().empty()) {
+      spdlog::info("no web viewer: no http_static_dir and no built clients/web/dist found");
+    } else {
+      spdlog::info("web viewer at http://{}:{}/ (files from {})", config.http_bind,
+                   http_acceptor.port(), http_handler->static_dir().string());
+    }
+  }
   if (!options.port_file.empty()) write_port_file();
 }
 

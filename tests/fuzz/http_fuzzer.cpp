@@ -49,6 +49,7 @@ struct Harness {
     config.admin_port = 0;
     config.http_port = 0;
     config.http_cors_origins = {"https://viewer.example"};
+    config.http_static_dir = std::filesystem::path();  // no viewer: its paths still parsed
     config.limits.max_line_bytes = 4096;  // the body limit: reachable by short inputs
     config.server_limits.http_max_header_bytes = 1024;
     tokened = config;

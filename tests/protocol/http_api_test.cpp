@@ -24,11 +24,57 @@ TEST(HttpRoute, PathsNameTheirResource) {
   EXPECT_EQ(field.method, Method::GeodesicField);
   EXPECT_EQ(route_http_path("/v1/meshes/lucy/spline").method, Method::GeodesicSpline);
   EXPECT_EQ(route_http_path("/v1/meshes/lucy/geometry").kind, HttpRoute::Kind::Geometry);
-  for (const char* unknown : {"/", "/v1", "/v1/meshes/", "/v1/meshes/lucy/", "/v1/meshes/lucy/x",
-                              "/v1/meshes/lucy/field/more", "/v1/meshes/-bad/field",
-                              "/v1/meshes/a%20b", "/v1/rpc/", "/V1/rpc"}) {
+  for (const char* unknown : {"/v1", "/v1/", "/v1/meshes/", "/v1/meshes/lucy/",
+                              "/v1/meshes/lucy/x", "/v1/meshes/lucy/field/more",
+                              "/v1/meshes/-bad/field", "/v1/meshes/a%20b", "/v1/rpc/"}) {
     EXPECT_EQ(route_http_path(unknown).kind, HttpRoute::Kind::Unknown) << unknown;
   }
+  // Outside /v1/: the web viewer's files.
+  for (const char* file : {"/", "/index.html", "/assets/index-1a2b.js", "/V1/rpc", "/v1x"}) {
+    EXPECT_EQ(route_http_path(file).kind, HttpRoute::Kind::Static) << file;
+  }
+}
+
+TEST(HttpStatic, FilePathsStayInsideTheDirectory) {
+  EXPECT_EQ(static_file_path("/"), "index.html");
+  EXPECT_EQ(static_file_path("/assets/index-1a2b.js"), "assets/index-1a2b.js");
+  EXPECT_EQ(static_file_path("/sub/"), "sub/index.html");
+  EXPECT_EQ(static_file_path("/a%20b.png"), "a b.png");
+  EXPECT_EQ(static_file_path("/a+b.js"), "a+b.js");  // '+' is a space only in query strings
+  for (const char* refused :
+       {"", "index.html", "/..", "/../x", "/a/../b", "/./a", "/a/.", "/%2e%2e/x", "/.%2E/x",
+        "/a%2fb", "/a%2Fb", "/a%5cb", "/a\\b", "//x", "/a//b", "/a%00b", "/a%0d%0ab", "/a%7f",
+        "/%", "/%4", "/%zz"}) {
+    try {
+      (void)static_file_path(refused);
+      ADD_FAILURE() << "accepted " << refused;
+    } catch (const ProtocolError& e) {
+      EXPECT_EQ(e.reason(), ErrorReason::InvalidRequest) << refused;
+    }
+  }
+  try {
+    (void)static_file_path("/assets/.env");
+    ADD_FAILURE() << "accepted a hidden file";
+  } catch (const ProtocolError& e) {
+    EXPECT_EQ(e.reason(), ErrorReason::NotFound);
+  }
+}
+
+TEST(HttpStatic, ContentTypesAndCacheControl) {
+  EXPECT_EQ(static_content_type("index.html"), "text/html; charset=utf-8");
+  EXPECT_EQ(static_content_type("assets/index-1a2b.js"), "text/javascript; charset=utf-8");
+  EXPECT_EQ(static_content_type("assets/INDEX.CSS"), "text/css; charset=utf-8");
+  EXPECT_EQ(static_content_type("a.png"), "image/png");
+  EXPECT_EQ(static_content_type("a.svg"), "image/svg+xml");
+  EXPECT_EQ(static_content_type("a.json"), "application/json");
+  EXPECT_EQ(static_content_type("a.js.map"), "application/json");
+  EXPECT_EQ(static_content_type("a.wasm"), "application/wasm");
+  EXPECT_EQ(static_content_type("favicon.ico"), "image/x-icon");
+  EXPECT_EQ(static_content_type("v1.2/noext"), "application/octet-stream");
+  EXPECT_EQ(static_content_type("a.tar.gz"), "application/octet-stream");
+  EXPECT_EQ(static_cache_control("index.html"), "no-cache");
+  EXPECT_EQ(static_cache_control("assets/index-1a2b.js"), "public, max-age=31536000, immutable");
+  EXPECT_EQ(static_cache_control("sub/assets/x.js"), "no-cache");
 }
 
 TEST(HttpQuery, QueryStringsBecomeTypedParams) {

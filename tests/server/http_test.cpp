@@ -1,6 +1,7 @@
 // The HTTP API over real sockets (docs/http.md): resource paths answer what the TCP methods
 // answer, binary arrays equal the JSON ones, every bad input gets its status, keep-alive and
-// pipelining, slow senders, the bearer token, CORS, gzip, HEAD, metrics by transport, drain.
+// pipelining, slow senders, the bearer token, CORS, gzip, HEAD, metrics by transport, drain;
+// the web viewer's files at "/" (types, cache headers, nothing from outside their directory).
 #include <zlib.h>
 
 #include <cmath>
@@ -122,6 +123,7 @@ Config http_config(const TestData& data) {
   Config config = spot_config(data);
   config.http_port = free_port();
   config.admin_port = free_port();
+  config.http_static_dir = fs::path();  // no viewer, whatever the source tree holds
   return config;
 }
 
@@ -484,6 +486,19 @@ TEST_F(HttpTest, CorsForConfiguredOriginsOnlyAndGzipWhenAccepted) {
   EXPECT_EQ(gzipped.header("content-encoding"), "gzip");
   EXPECT_LT(gzipped.body.size(), plain.body.size());
   EXPECT_EQ(gunzip(gzipped.body), plain.body);
+  // Binary float arrays are sent as they are (gzip gains little on them); uint32 ones gzipped.
+  const HttpResponse floats =
+      http.request("GET", "/v1/meshes/spot/field?source=v:3&dtype=float32", "",
+                   {"Accept-Encoding: gzip", "Accept: application/octet-stream"});
+  ASSERT_EQ(floats.status, 200);
+  EXPECT_EQ(floats.header("content-encoding"), "");
+  EXPECT_EQ(floats.body.size(), 4 * 2930u);
+  const HttpResponse nearest =
+      http.request("GET", "/v1/meshes/spot/field?sources=v:3&sources=v:900&array=nearest_source",
+                   "", {"Accept-Encoding: gzip", "Accept: application/octet-stream"});
+  ASSERT_EQ(nearest.status, 200) << nearest.body;
+  EXPECT_EQ(nearest.header("content-encoding"), "gzip");
+  EXPECT_EQ(gunzip(nearest.body).size(), 4 * 2930u);
   EXPECT_EQ(http.request("GET", "/v1/meshes", "", {"Accept-Encoding: gzip;q=0"})
                 .header("content-encoding"),
             "");
@@ -558,6 +573,180 @@ TEST(HttpLifecycle, DrainAnswersTheRequestBeingReadAndClosesIdleConnections) {
   EXPECT_EQ(answered.header("connection"), "close");
   EXPECT_TRUE(reading.closed_by_peer());
   server.server->wait();
+}
+
+/// A server with a query token serving a viewer directory that tries every way out: a secret
+/// file beside it, symbolic links to it and to its directory.
+class StaticFilesTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    data_ = new TestData();
+    const fs::path web = web_dir();
+    fs::create_directories(web / "assets");
+    fs::create_directories(web / "sub");
+    write_text(web / "index.html", "<!doctype html><title>viewer</title>\n");
+    write_text(web / "sub/index.html", "<p>sub</p>\n");
+    std::string script = "// the viewer's bundle\n";
+    for (int i = 0; script.size() < 4096; ++i) {
+      script += "console.log(" + std::to_string(i * 7919 % 10007) + ");\n";
+    }
+    write_text(web / "assets/index-3f2a1b.js", script);
+    write_text(web / "assets/index-9c8d7e.css", "body { margin: 0 }\n");
+    write_text(web / "icon.png", std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16));
+    write_text(web / "module.wasm", std::string("\0asm\1\0\0\0", 8));
+    write_text(web / "data.bin", "raw");
+    write_text(web / ".hidden", "hidden");
+    write_text(web / "large.json", std::string(kMaxOutput + 1, ' '));
+    write_text(data_->dir.path() / "secret.txt", "SECRET outside the viewer");
+    fs::create_symlink(data_->dir.path() / "secret.txt", web / "linked-out.html");
+    fs::create_symlink(data_->dir.path(), web / "dir-out");
+    fs::create_symlink("index.html", web / "linked-in.html");
+    Config config = http_config(*data_);
+    config.http_static_dir = web;
+    config.query_token = "static-test-token";
+    config.limits.max_output_bytes = kMaxOutput;
+    server_ = new RunningServer(config);
+  }
+  static void TearDownTestSuite() {
+    delete server_;
+    delete data_;
+  }
+  static fs::path web_dir() { return data_->dir.path() / "web"; }
+  static std::uint16_t http_port() { return server_->server->http_port(); }
+  static std::string file(const std::string& relative) {
+    std::ifstream in(web_dir() / relative, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  }
+  static constexpr std::size_t kMaxOutput = 256 * 1024;
+  static TestData* data_;
+  static RunningServer* server_;
+};
+TestData* StaticFilesTest::data_ = nullptr;
+RunningServer* StaticFilesTest::server_ = nullptr;
+
+TEST_F(StaticFilesTest, FilesComeWithTheirTypeAndCacheHeadersWithoutTheToken) {
+  HttpClient http(http_port());
+  for (const char* target : {"/", "/index.html", "/?mesh=spot&source=v:0"}) {
+    const HttpResponse index = http.request("GET", target);
+    ASSERT_EQ(index.status, 200) << target << ": " << index.body;
+    EXPECT_EQ(index.body, file("index.html"));
+    EXPECT_EQ(index.header("content-type"), "text/html; charset=utf-8");
+    EXPECT_EQ(index.header("cache-control"), "no-cache");
+    EXPECT_EQ(index.header("x-content-type-options"), "nosniff");
+  }
+  EXPECT_EQ(http.request("GET", "/sub/").body, file("sub/index.html"));
+  EXPECT_EQ(http.request("GET", "/linked-in.html").body, file("index.html"));
+
+  const HttpResponse script = http.request("GET", "/assets/index-3f2a1b.js");
+  ASSERT_EQ(script.status, 200);
+  EXPECT_EQ(script.body, file("assets/index-3f2a1b.js"));
+  EXPECT_EQ(script.header("content-type"), "text/javascript; charset=utf-8");
+  EXPECT_EQ(script.header("cache-control"), "public, max-age=31536000, immutable");
+  const struct {
+    const char* file;
+    const char* type;
+  } typed[] = {{"assets/index-9c8d7e.css", "text/css; charset=utf-8"},
+               {"icon.png", "image/png"},
+               {"module.wasm", "application/wasm"},
+               {"data.bin", "application/octet-stream"}};
+  for (const auto& t : typed) {
+    const HttpResponse r = http.request("GET", std::string("/") + t.file);
+    ASSERT_EQ(r.status, 200) << t.file;
+    EXPECT_EQ(r.header("content-type"), t.type) << t.file;
+    EXPECT_EQ(r.body, file(t.file)) << t.file;  // binary bytes (NULs) intact
+  }
+
+  const HttpResponse head = http.request("HEAD", "/assets/index-3f2a1b.js");
+  EXPECT_EQ(head.status, 200);
+  EXPECT_EQ(head.header("content-length"), std::to_string(script.body.size()));
+  EXPECT_TRUE(head.body.empty());
+  const HttpResponse gzipped =
+      http.request("GET", "/assets/index-3f2a1b.js", "", {"Accept-Encoding: gzip"});
+  EXPECT_EQ(gzipped.header("content-encoding"), "gzip");
+  EXPECT_EQ(gunzip(gzipped.body), script.body);
+
+  // The API still wants the token; the files never do.
+  EXPECT_EQ(http.request("GET", "/v1/meshes").status, 401);
+  EXPECT_EQ(http.request("GET", "/v1/meshes", "", {"Authorization: Bearer static-test-token"})
+                .status,
+            200);
+  const HttpResponse api_unknown = http.request("GET", "/v1/nope");
+  EXPECT_EQ(api_unknown.status, 404);
+  EXPECT_EQ(api_unknown.json_body()["error"]["data"]["reason"], "NotFound");
+}
+
+TEST_F(StaticFilesTest, OnlyGetAndHead) {
+  HttpClient http(http_port());
+  for (const char* method : {"POST", "PUT", "DELETE", "OPTIONS"}) {
+    const HttpResponse r = http.request(method, "/index.html", method == std::string("POST")
+                                                                   ? "{}"
+                                                                   : "");
+    EXPECT_EQ(r.status, 405) << method;
+    EXPECT_EQ(r.header("allow"), "GET, HEAD") << method;
+  }
+  EXPECT_EQ(http.request("GET", "/").status, 200);  // the connection still works
+}
+
+TEST_F(StaticFilesTest, NothingFromOutsideTheDirectory) {
+  HttpClient http(http_port());
+  const struct {
+    const char* target;
+    int status;
+  } refused[] = {
+      {"/../secret.txt", 400},
+      {"/assets/../../secret.txt", 400},
+      {"/assets/../index.html", 400},
+      {"/./index.html", 400},
+      {"/%2e%2e/secret.txt", 400},
+      {"/%2E%2E/secret.txt", 400},
+      {"/.%2e/secret.txt", 400},
+      {"/assets%2f..%2f..%2fsecret.txt", 400},
+      {"/%2fetc%2fpasswd", 400},
+      {"/..%5csecret.txt", 400},
+      {"/..\\secret.txt", 400},
+      {"/assets\\index-3f2a1b.js", 400},
+      {"/index.html%00.png", 400},
+      {"/index.html%0a", 400},
+      {"/bad%zzescape", 400},
+      {"//etc/passwd", 400},
+      {"/etc/passwd", 404},
+      {"/linked-out.html", 404},
+      {"/dir-out/secret.txt", 404},
+      {"/.hidden", 404},
+      {"/%2ehidden", 404},
+      {"/assets", 404},  // a directory is not a file
+      {"/missing.js", 404},
+      {"/large.json", 413},  // beyond max_output_bytes: refused, not read
+  };
+  for (const auto& r : refused) {
+    const HttpResponse response = http.request("GET", r.target);
+    EXPECT_EQ(response.status, r.status) << r.target << ": " << response.body;
+    EXPECT_EQ(response.body.find("SECRET"), std::string::npos) << r.target;
+    EXPECT_EQ(response.header("content-type"), "application/json") << r.target;
+  }
+  EXPECT_EQ(http.request("GET", "/").status, 200);
+}
+
+TEST(StaticFilesConfig, OffWhenEmptyAndAMissingDirectoryIsAConfigError) {
+  TestData data;
+  Config config = http_config(data);
+  RunningServer server(config);
+  HttpClient http(server.server->http_port());
+  const HttpResponse off = http.request("GET", "/");
+  EXPECT_EQ(off.status, 404);
+  EXPECT_NE(off.body.find("serves no web viewer"), std::string::npos) << off.body;
+
+  Config missing = http_config(data);
+  missing.http_static_dir = data.dir.path() / "no-such-dir";
+  EXPECT_THROW(Server{missing}, ConfigError);
+
+  const Config parsed = parse_config(json::parse(R"({"http_static_dir": "web"})"), "/srv/geo",
+                                     "test.json");
+  EXPECT_EQ(parsed.http_static_dir, fs::path("/srv/geo/web"));
+  EXPECT_EQ(parse_config(json::parse(R"({"http_static_dir": ""})"), "/srv", "t.json")
+                .http_static_dir,
+            fs::path());
+  EXPECT_FALSE(parse_config(json::object(), "/srv", "t.json").http_static_dir.has_value());
 }
 
 }  // namespace
