@@ -403,7 +403,9 @@ class HttpClient(Client):
         connection, timeout and protocol errors after failing the unanswered requests."""
         with self._lock:
             binary = [p for p in pendings if _binary_route(p.request)]
-            encoded = [(p, *self._envelope(p.request)) for p in pendings if p not in binary]
+            encoded = [
+                (p, *self._envelope(p.request)) for p in pendings if not _binary_route(p.request)
+            ]
             if timeout is not None:
                 slack = max((p.request.params.get("timeout_ms") or 0) for p in pendings) / 1000.0
                 timeout = max(timeout, slack + 1.0) if slack else timeout
@@ -433,9 +435,10 @@ class HttpClient(Client):
             pending._resolve(error=error)
             return
         np = _np
-        values = got.values
-        if got.dtype != "float64" or not hasattr(values, "dtype"):
+        if got.dtype != "float64":
             raise GeoproxProtocolError(f"{req.method}: binary reply of {got.dtype}, not float64")
+        # A flat array.array when the client has use_numpy=False: arrays were asked for.
+        values = np.asarray(got.values, dtype=np.float64).reshape(got.shape)
         reachable = int(np.isfinite(values).sum())
         result: dict[str, Any] = {"mesh": mesh, "mesh_version": got.mesh_version}
         if is_matrix:

@@ -238,6 +238,12 @@ class ArraysTest(unittest.TestCase):
             self.assertEqual(got.shape, (1, 2))
             listed = client.matrix("spot", ["v:0"], ["v:1", "v:2"], as_array=False)["distances"]
             self.assertBitsEqual(got, np.array(listed))
+        # use_numpy=False only concerns the decoding of base64 fields; as_array still gives arrays.
+        with DAEMON.client(self.transport, use_numpy=False) as client:
+            again = client.matrix("spot", ["v:0"], ["v:1", "v:2"], as_array=True)["distances"]
+            self.assertBitsEqual(again, got)
+            field = client.field("spot", "v:0", as_array=True)["distances"]
+            self.assertEqual((field.dtype, field.shape), (np.float64, (SPOT_VERTICES,)))
 
     def test_bad_arrays_are_refused_with_clear_errors(self) -> None:
         with self.assertRaisesRegex(TypeError, "ids must be integers, not float64"):
