@@ -4,6 +4,7 @@
 #include <bit>
 #include <cstring>
 #include <stdexcept>
+#include <type_traits>
 
 namespace geoprox::protocol {
 
@@ -29,15 +30,16 @@ constexpr std::array<std::int8_t, 256> kDecodeTable = make_decode_table();
 /// 4-byte words as bytes in little-endian order, whatever the host's.
 template <typename Word>
 std::vector<std::uint8_t> words_to_le_bytes(std::span<const Word> words) {
-  static_assert(sizeof(Word) == 4);
-  std::vector<std::uint8_t> bytes(words.size() * 4);
+  static_assert(sizeof(Word) == 4 || sizeof(Word) == 8);
+  using Bits = std::conditional_t<sizeof(Word) == 4, std::uint32_t, std::uint64_t>;
+  std::vector<std::uint8_t> bytes(words.size() * sizeof(Word));
   if constexpr (std::endian::native == std::endian::little) {
     if (!words.empty()) std::memcpy(bytes.data(), words.data(), bytes.size());
   } else {
     for (std::size_t i = 0; i < words.size(); ++i) {
-      const auto word = std::bit_cast<std::uint32_t>(words[i]);
-      for (std::size_t k = 0; k < 4; ++k) {
-        bytes[4 * i + k] = static_cast<std::uint8_t>(word >> (8 * k));
+      const auto word = std::bit_cast<Bits>(words[i]);
+      for (std::size_t k = 0; k < sizeof(Word); ++k) {
+        bytes[sizeof(Word) * i + k] = static_cast<std::uint8_t>(word >> (8 * k));
       }
     }
   }
@@ -136,6 +138,25 @@ std::vector<float> decode_f32le_base64(std::string_view text) {
   const std::vector<std::uint32_t> words = le_bytes_to_words(base64_decode(text));
   std::vector<float> values(words.size());
   for (std::size_t i = 0; i < words.size(); ++i) values[i] = std::bit_cast<float>(words[i]);
+  return values;
+}
+
+std::string encode_f64le_base64(std::span<const double> values) {
+  return base64_encode(words_to_le_bytes(values));
+}
+
+std::vector<double> decode_f64le_base64(std::string_view text) {
+  const std::vector<std::uint8_t> bytes = base64_decode(text);
+  if (bytes.size() % 8 != 0) {
+    throw std::invalid_argument("decoded " + std::to_string(bytes.size()) +
+                                " bytes, not a whole number of 8-byte values");
+  }
+  std::vector<double> values(bytes.size() / 8);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    std::uint64_t word = 0;
+    for (std::size_t k = 0; k < 8; ++k) word |= std::uint64_t{bytes[8 * i + k]} << (8 * k);
+    values[i] = std::bit_cast<double>(word);
+  }
   return values;
 }
 

@@ -1,7 +1,9 @@
 // Base64 (RFC 4648, standard alphabet, with padding) and the little-endian array encodings of
-// geodesic.field: "f32le-base64" for distances (IEEE-754 binary32; +inf = not reached) and
-// "u32le-base64" for nearest-source indices (0xFFFFFFFF = not reached). Little-endian whatever the
-// host, so a client decodes with numpy.frombuffer(base64.b64decode(s), "<f4").
+// geodesic.field and geodesic.matrix: "f32le-base64" for distances (IEEE-754 binary32; +inf =
+// not reached), "f64le-base64" for distances (IEEE-754 binary64, the very doubles of the JSON
+// numbers; +inf = not reached) and "u32le-base64" for nearest-source indices (0xFFFFFFFF = not
+// reached). Little-endian whatever the host, so a client decodes with
+// numpy.frombuffer(base64.b64decode(s), "<f4") (or "<f8").
 #pragma once
 
 #include <cstdint>
@@ -23,6 +25,11 @@ std::string encode_f32le_base64(std::span<const float> values);
 std::string encode_f32le_base64(std::span<const double> values);
 /// Throws std::invalid_argument if not base64 or not a whole number of 4-byte values.
 std::vector<float> decode_f32le_base64(std::string_view text);
+
+/// Every double as it is (bit for bit; infinities and NaN too).
+std::string encode_f64le_base64(std::span<const double> values);
+/// Throws std::invalid_argument if not base64 or not a whole number of 8-byte values.
+std::vector<double> decode_f64le_base64(std::string_view text);
 
 std::string encode_u32le_base64(std::span<const std::uint32_t> values);
 std::vector<std::uint32_t> decode_u32le_base64(std::string_view text);

@@ -88,7 +88,15 @@ bool is_valid_mesh_id(std::string_view id) {
 }
 
 std::string_view encoding_name(FieldEncoding encoding) {
-  return encoding == FieldEncoding::Json ? "json" : "f32le-base64";
+  switch (encoding) {
+    case FieldEncoding::Json:
+      return "json";
+    case FieldEncoding::F32leBase64:
+      return "f32le-base64";
+    case FieldEncoding::F64leBase64:
+      return "f64le-base64";
+  }
+  return "json";
 }
 
 std::string_view sampling_name(SamplingMethod sampling) {

@@ -77,8 +77,11 @@ struct PathParams {
   WirePoint target;
 };
 
-enum class FieldEncoding : std::uint8_t { Json, F32leBase64 };
-std::string_view encoding_name(FieldEncoding encoding);  ///< "json", "f32le-base64"
+/// How geodesic.field and geodesic.matrix send their distances: JSON numbers (null where not
+/// reached), or base64 of little-endian binary32 / binary64 values (+inf where not reached).
+enum class FieldEncoding : std::uint8_t { Json, F32leBase64, F64leBase64 };
+/// "json", "f32le-base64", "f64le-base64"
+std::string_view encoding_name(FieldEncoding encoding);
 
 struct FieldParams {
   std::string mesh;
@@ -94,6 +97,9 @@ struct MatrixParams {
   std::string mesh;
   std::vector<WirePoint> sources;
   std::vector<WirePoint> targets;
+  /// Json (default) or F64leBase64; F32leBase64 is refused (a matrix is small enough to send
+  /// exactly).
+  FieldEncoding encoding = FieldEncoding::Json;
 };
 
 struct MeshListParams {};

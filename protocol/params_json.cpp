@@ -34,8 +34,10 @@ json params_json(const FieldParams& p) {
   return out;
 }
 json params_json(const MatrixParams& p) {
-  return {
+  json out = {
       {"mesh", p.mesh}, {"sources", points_json(p.sources)}, {"targets", points_json(p.targets)}};
+  if (p.encoding != FieldEncoding::Json) out["encoding"] = encoding_name(p.encoding);
+  return out;
 }
 json params_json(const BatchParams& p) {
   json requests = json::array();

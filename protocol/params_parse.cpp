@@ -218,13 +218,16 @@ Params read_path(const ObjectFields& fields, const Limits&) {
                     parse_point(fields.require("target"), "params.target")};
 }
 
-FieldEncoding read_encoding(const ObjectFields& fields, FieldEncoding absent) {
+FieldEncoding read_encoding(const ObjectFields& fields, FieldEncoding absent,
+                            bool allow_f32 = true) {
   const auto encoding = fields.optional_string("encoding");
   if (!encoding) return absent;
   if (*encoding == "json") return FieldEncoding::Json;
-  if (*encoding == "f32le-base64") return FieldEncoding::F32leBase64;
-  fields.fail("encoding",
-              "must be \"json\" or \"f32le-base64\", not \"" + detail::excerpt(*encoding) + "\"");
+  if (*encoding == "f64le-base64") return FieldEncoding::F64leBase64;
+  if (allow_f32 && *encoding == "f32le-base64") return FieldEncoding::F32leBase64;
+  fields.fail("encoding", std::string(allow_f32 ? R"(must be "json", "f32le-base64" or )"
+                                                : R"(must be "json" or )") +
+                              R"("f64le-base64", not ")" + detail::excerpt(*encoding) + "\"");
 }
 
 Params read_field(const ObjectFields& fields, const Limits& limits) {
@@ -268,6 +271,7 @@ Params read_matrix(const ObjectFields& fields, const Limits& limits) {
       read_points(fields, "sources", limits.max_points_per_request, "max_points_per_request");
   parsed.targets =
       read_points(fields, "targets", limits.max_points_per_request, "max_points_per_request");
+  parsed.encoding = read_encoding(fields, parsed.encoding, /*allow_f32=*/false);
   return parsed;
 }
 
@@ -399,7 +403,7 @@ Params parse_params(Method method, const json& params, const Limits& limits,
     case Method::GeodesicField:
       return parse({"mesh", "source", "sources", "cutoff", "encoding", "timeout_ms"}, read_field);
     case Method::GeodesicMatrix:
-      return parse({"mesh", "sources", "targets", "timeout_ms"}, read_matrix);
+      return parse({"mesh", "sources", "targets", "encoding", "timeout_ms"}, read_matrix);
     case Method::Batch:
       return parse({"requests", "timeout_ms"}, read_batch);
     case Method::MeshList:

@@ -71,6 +71,12 @@ void to_json(json& out, const PathResult& result) {
 
 namespace {
 
+/// Distances in a base64 encoding (+inf stays +inf).
+std::string encode_distances(FieldEncoding encoding, const std::vector<double>& distances) {
+  if (encoding == FieldEncoding::F64leBase64) return encode_f64le_base64(distances);
+  return encode_f32le_base64(std::span<const double>(distances));
+}
+
 /// Vertices with a distance; checks the shape the server filled in.
 std::size_t count_reached(const FieldResult& result) {
   if (!result.nearest_source.empty() && result.nearest_source.size() != result.distances.size()) {
@@ -92,8 +98,8 @@ void to_json(json& out, const FieldResult& result) {
          {"vertices", result.distances.size()},
          {"reached", reached},
          {"cutoff", optional_json(result.cutoff)}};
-  if (result.encoding == FieldEncoding::F32leBase64) {
-    out["distances"] = encode_f32le_base64(std::span<const double>(result.distances));
+  if (result.encoding != FieldEncoding::Json) {
+    out["distances"] = encode_distances(result.encoding, result.distances);
     if (!result.nearest_source.empty()) {
       out["nearest_source"] = encode_u32le_base64(result.nearest_source);
     }
@@ -114,9 +120,9 @@ void to_json(json& out, const FieldResult& result) {
 }
 
 std::string field_result_object(const FieldResult& result) {
-  if (result.encoding != FieldEncoding::F32leBase64) return dump_one_line(json(result));
+  if (result.encoding == FieldEncoding::Json) return dump_one_line(json(result));
   const std::size_t reached = count_reached(result);
-  const std::string distances = encode_f32le_base64(std::span<const double>(result.distances));
+  const std::string distances = encode_distances(result.encoding, result.distances);
   const std::string nearest =
       result.nearest_source.empty() ? std::string() : encode_u32le_base64(result.nearest_source);
   // The members of to_json(FieldResult), in the alphabetical order nlohmann writes them.
@@ -147,7 +153,7 @@ std::string field_result_object(const FieldResult& result) {
 }
 
 std::string serialize_field_result(const RequestId& id, const FieldResult& result) {
-  if (result.encoding != FieldEncoding::F32leBase64) return serialize_result(id, json(result));
+  if (result.encoding == FieldEncoding::Json) return serialize_result(id, json(result));
   std::string line = R"({"jsonrpc":"2.0","id":)";
   line += id.json_text();
   line += R"(,"result":)";
@@ -163,6 +169,18 @@ void to_json(json& out, const MatrixResult& result) {
                                                    " values, not " +
                                                    std::to_string(result.source_count) + " x " +
                                                    std::to_string(result.target_count));
+  }
+  if (result.encoding != FieldEncoding::Json) {
+    std::size_t unreachable = 0;
+    for (double distance : result.distances) unreachable += std::isfinite(distance) ? 0 : 1;
+    out = {{"mesh", result.mesh},
+           {"mesh_version", result.mesh_version},
+           {"sources", result.source_count},
+           {"targets", result.target_count},
+           {"unreachable", unreachable},
+           {"encoding", encoding_name(result.encoding)},
+           {"distances", encode_distances(result.encoding, result.distances)}};
+    return;
   }
   json rows = json::array();
   std::size_t unreachable = 0;
@@ -239,7 +257,8 @@ void to_json(json& out, const ServerInfoResult& result) {
          {"server_version", result.server_version},
          {"limits", result.limits},
          {"encodings",
-          {encoding_name(FieldEncoding::Json), encoding_name(FieldEncoding::F32leBase64)}},
+          {encoding_name(FieldEncoding::Json), encoding_name(FieldEncoding::F32leBase64),
+           encoding_name(FieldEncoding::F64leBase64)}},
          {"methods", std::move(methods)},
          {"admin_enabled", result.admin_enabled}};
 }

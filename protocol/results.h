@@ -60,16 +60,17 @@ struct FieldResult {
   FieldEncoding encoding = FieldEncoding::Json;
   std::optional<double> cutoff;  ///< echoed
   /// +inf where not reached (beyond the cutoff or in another component): null in "json",
-  /// +inf in "f32le-base64".
+  /// +inf in "f32le-base64" and "f64le-base64".
   std::vector<double> distances;
   /// Index into the request's sources of each vertex's nearest source, only with several
   /// sources (empty otherwise); kNotReached where not reached. null / 0xFFFFFFFF on the wire;
-  /// "u32le-base64" with the f32le-base64 encoding.
+  /// "u32le-base64" with the base64 encodings.
   std::vector<std::uint32_t> nearest_source;
   static constexpr std::uint32_t kNotReached = 0xFFFFFFFF;
 };
 
-/// Row-major, sources x targets; +inf for an unreachable pair (null on the wire). Unlike
+/// Row-major, sources x targets; +inf for an unreachable pair (null in "json", +inf in
+/// "f64le-base64", whose `distances` is one base64 string of the whole row-major matrix). Unlike
 /// geodesic.distance, one unreachable pair does not fail the whole matrix; `unreachable` counts
 /// them so a client cannot miss them.
 struct MatrixResult {
@@ -78,6 +79,8 @@ struct MatrixResult {
   std::size_t source_count = 0;
   std::size_t target_count = 0;
   std::vector<double> distances;
+  /// Json or F64leBase64; the result has an "encoding" member only when it is not Json.
+  FieldEncoding encoding = FieldEncoding::Json;
 };
 
 enum class MeshState : std::uint8_t { Ready, Building, Failed };
@@ -233,7 +236,7 @@ void to_json(nlohmann::json& out, const ExpmapResult& result);
 void to_json(nlohmann::json& out, const SplineResult& result);
 
 /// The field result object as compact JSON text: byte for byte dump_one_line(json(result)), but
-/// with "f32le-base64" the base64 strings go straight into the text instead of through a JSON
+/// with a base64 encoding the base64 strings go straight into the text instead of through a JSON
 /// document (no copy, no escaping pass; base64 needs none). Fields are the large replies.
 std::string field_result_object(const FieldResult& result);
 /// The reply line of a field result (its `result` is field_result_object(result)).

@@ -130,6 +130,20 @@ LoadedMesh::Lease lease_for(const LoadedMesh& mesh, RequestContext& context) {
   return lease;
 }
 
+/// The fewest bytes one distance takes in a reply: a digit and a comma in JSON, the base64 of
+/// 4 or 8 bytes (5 or 10 characters, rounded down) in the binary encodings.
+std::size_t bytes_per_value(protocol::FieldEncoding encoding) {
+  switch (encoding) {
+    case protocol::FieldEncoding::Json:
+      return 2;
+    case protocol::FieldEncoding::F32leBase64:
+      return 5;
+    case protocol::FieldEncoding::F64leBase64:
+      return 10;
+  }
+  return 2;
+}
+
 void check_output(std::size_t min_bytes, const protocol::Limits& limits, const char* what) {
   if (min_bytes > limits.max_output_bytes) {
     throw ProtocolError(ErrorReason::TooLarge,
@@ -190,7 +204,7 @@ protocol::FieldResult run_field(const protocol::FieldParams& p, const LoadedMesh
                                 RequestContext& context, const protocol::Limits& limits) {
   const std::size_t n = m.mesh().num_vertices();
   const bool several = p.sources.size() > 1;
-  const std::size_t per_vertex = p.encoding == protocol::FieldEncoding::Json ? 2 : 5;
+  const std::size_t per_vertex = bytes_per_value(p.encoding);
   check_output(n * per_vertex * (several ? 2 : 1), limits, "the field");
   std::vector<SurfacePoint> sources;
   sources.reserve(p.sources.size());
@@ -222,7 +236,8 @@ protocol::FieldResult run_field(const protocol::FieldParams& p, const LoadedMesh
 
 protocol::MatrixResult run_matrix(const protocol::MatrixParams& p, const LoadedMesh& m,
                                   RequestContext& context, const protocol::Limits& limits) {
-  check_output(p.sources.size() * p.targets.size() * 2, limits, "the matrix");
+  check_output(p.sources.size() * p.targets.size() * bytes_per_value(p.encoding), limits,
+               "the matrix");
   std::vector<SurfacePoint> sources, targets;
   sources.reserve(p.sources.size());
   targets.reserve(p.targets.size());
@@ -238,6 +253,7 @@ protocol::MatrixResult run_matrix(const protocol::MatrixParams& p, const LoadedM
   r.mesh_version = m.version();
   r.source_count = sources.size();
   r.target_count = targets.size();
+  r.encoding = p.encoding;
   r.distances = m.query().matrix(sources, targets, lease.scratch());
   return r;
 }

@@ -89,6 +89,52 @@ TEST(Base64, FloatArraysRoundTripBitExactAtEveryLength) {
   }
 }
 
+TEST(Base64, DoublesAreLittleEndianIeee754Binary64) {
+  // 1.0 is 0x3FF0000000000000: bytes 00 00 00 00 00 00 F0 3F.
+  EXPECT_EQ(encode_f64le_base64(std::vector<double>{1.0}), "AAAAAAAA8D8=");
+  EXPECT_EQ(base64_decode(encode_f64le_base64(
+                std::vector<double>{std::numeric_limits<double>::infinity()})),
+            (std::vector<std::uint8_t>{0, 0, 0, 0, 0, 0, 0xF0, 0x7F}));
+  EXPECT_EQ(decode_f64le_base64("AAAAAAAA8D8="), std::vector<double>{1.0});
+}
+
+TEST(Base64, DoubleArraysRoundTripBitExactAtEveryLength) {
+  // 8-byte values: lengths 1, 2, 3 doubles leave 2, 1, 0 bytes in the last base64 group.
+  std::mt19937_64 random(12345);
+  const std::vector<double> specials = {0.0,
+                                        -0.0,
+                                        0.1,
+                                        1.0 / 3.0,
+                                        std::numeric_limits<double>::denorm_min(),
+                                        std::numeric_limits<double>::max(),
+                                        std::numeric_limits<double>::infinity(),
+                                        -std::numeric_limits<double>::infinity(),
+                                        std::bit_cast<double>(0x7FF8000000000123ull)};
+  for (std::size_t length = 0; length < 40; ++length) {
+    std::vector<double> values;
+    for (std::size_t i = 0; i < length; ++i) {
+      values.push_back(i < specials.size() ? specials[(i + length) % specials.size()]
+                                           : std::bit_cast<double>(random()));
+    }
+    const std::string text = encode_f64le_base64(values);
+    EXPECT_EQ(text.size(), (8 * length + 2) / 3 * 4);
+    const std::vector<double> decoded = decode_f64le_base64(text);
+    ASSERT_EQ(decoded.size(), length);
+    for (std::size_t i = 0; i < length; ++i) {
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(decoded[i]), std::bit_cast<std::uint64_t>(values[i]))
+          << "length " << length << " index " << i;
+    }
+  }
+  try {
+    decode_f64le_base64("AAAAAAAA");  // 6 bytes
+    FAIL() << "6 bytes decoded as doubles";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("not a whole number of 8-byte values"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Base64, DoublesAreRoundedToTheNearestFloat) {
   const std::vector<double> values = {0.1, 1.0 / 3.0, std::numeric_limits<double>::infinity(),
                                       1e-50, 2.5};

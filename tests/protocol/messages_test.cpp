@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -181,6 +182,27 @@ TEST(FieldParamsTest, ParsesOneOrSeveralSources) {
                             json::parse(R"({"mesh":"spot","source":"v:0","encoding":"json"})"))
           .encoding,
       FieldEncoding::Json);
+  EXPECT_EQ(parse_as<FieldParams>(
+                Method::GeodesicField,
+                json::parse(R"({"mesh":"spot","source":"v:0","encoding":"f64le-base64"})"))
+                .encoding,
+            FieldEncoding::F64leBase64);
+}
+
+TEST(MatrixParamsTest, EncodingIsJsonOrF64) {
+  const Method m = Method::GeodesicMatrix;
+  EXPECT_EQ(parse_as<MatrixParams>(m, json::parse(R"({"mesh":"spot","sources":["v:0"],
+                                                      "targets":["v:1"]})"))
+                .encoding,
+            FieldEncoding::Json);
+  EXPECT_EQ(parse_as<MatrixParams>(m, json::parse(R"({"mesh":"spot","sources":["v:0"],
+                                      "targets":["v:1"],"encoding":"f64le-base64"})"))
+                .encoding,
+            FieldEncoding::F64leBase64);
+  expect_refused(m, json::parse(R"({"mesh":"spot","sources":["v:0"],"targets":["v:1"],
+                                    "encoding":"f32le-base64"})"),
+                 ErrorReason::InvalidParams,
+                 "params.encoding must be \"json\" or \"f64le-base64\", not \"f32le-base64\"");
 }
 
 TEST(FieldParamsTest, Refusals) {
@@ -206,7 +228,8 @@ TEST(FieldParamsTest, Refusals) {
   }
   expect_refused(m, json::parse(R"({"mesh":"spot","source":"v:0","encoding":"binary"})"),
                  ErrorReason::InvalidParams,
-                 "params.encoding must be \"json\" or \"f32le-base64\", not \"binary\"");
+                 "params.encoding must be \"json\", \"f32le-base64\" or \"f64le-base64\", "
+                 "not \"binary\"");
   expect_refused(m, json::parse(R"({"mesh":"spot","source":"v:0","max_distance":1})"),
                  ErrorReason::InvalidParams, "unknown member \"max_distance\"");
 }
@@ -590,7 +613,8 @@ TEST(Results, FieldFastPathWritesTheSameBytes) {
   for (int i = 0; i < 1001; ++i) distances.push_back(i % 7 == 3 ? kInf : 0.001 * i + 1.0 / 3);
   std::vector<std::uint32_t> nearest;
   for (int i = 0; i < 1001; ++i) nearest.push_back(i % 7 == 3 ? FieldResult::kNotReached : i % 3);
-  for (FieldEncoding encoding : {FieldEncoding::F32leBase64, FieldEncoding::Json}) {
+  for (FieldEncoding encoding :
+       {FieldEncoding::F32leBase64, FieldEncoding::F64leBase64, FieldEncoding::Json}) {
     for (bool several_sources : {false, true}) {
       for (std::optional<double> cutoff : {std::optional<double>(), std::optional<double>(0.75)}) {
         const FieldResult result{
@@ -606,6 +630,58 @@ TEST(Results, FieldFastPathWritesTheSameBytes) {
   }
   FieldResult bad{"m", "v", FieldEncoding::F32leBase64, std::nullopt, {1, 2}, {0}};
   EXPECT_THROW(serialize_field_result(RequestId(), bad), ProtocolError);
+}
+
+TEST(Results, FieldAsF64Base64IsTheJsonNumbersBitForBit) {
+  const std::vector<double> distances = {0, 0.1, kInf, 1.0 / 3.0, 12.5, 5e-324};
+  FieldResult result{"spot",       "v1",      FieldEncoding::F64leBase64,
+                     std::nullopt, distances, {0, 2, FieldResult::kNotReached, 1, 0, 1}};
+  const json out = json::parse(field_result_object(result));
+  EXPECT_EQ(out["encoding"], "f64le-base64");
+  EXPECT_EQ(out["vertices"], 6);
+  EXPECT_EQ(out["reached"], 5);
+  result.encoding = FieldEncoding::Json;
+  const json as_json = json::parse(field_result_object(result));
+  const std::vector<double> decoded = decode_f64le_base64(out["distances"].get<std::string>());
+  ASSERT_EQ(decoded.size(), distances.size());
+  for (std::size_t i = 0; i < distances.size(); ++i) {
+    if (as_json["distances"][i].is_null()) {
+      EXPECT_EQ(decoded[i], kInf) << i;  // not reached: null in JSON, +inf here
+    } else {
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(decoded[i]),
+                std::bit_cast<std::uint64_t>(as_json["distances"][i].get<double>()))
+          << i;
+    }
+  }
+  EXPECT_EQ(decode_u32le_base64(out["nearest_source"].get<std::string>()),
+            (std::vector<std::uint32_t>{0, 2, 0xFFFFFFFF, 1, 0, 1}));
+}
+
+TEST(Results, MatrixAsF64Base64IsRowMajorWithInfWhereUnreachable) {
+  MatrixResult result{"spot", "v1", 2, 3, {0, 0.1, 2.0 / 3.0, 3, kInf, 5}};
+  result.encoding = FieldEncoding::F64leBase64;
+  const json out = json::parse(dump_one_line(json(result)));
+  EXPECT_EQ(out["encoding"], "f64le-base64");
+  EXPECT_EQ(out["sources"], 2);
+  EXPECT_EQ(out["targets"], 3);
+  EXPECT_EQ(out["unreachable"], 1);
+  result.encoding = FieldEncoding::Json;
+  const json as_json = json::parse(dump_one_line(json(result)));
+  EXPECT_FALSE(as_json.contains("encoding"));  // JSON replies stay as they were
+  const std::vector<double> decoded = decode_f64le_base64(out["distances"].get<std::string>());
+  ASSERT_EQ(decoded.size(), 6u);
+  for (std::size_t s = 0; s < 2; ++s) {
+    for (std::size_t t = 0; t < 3; ++t) {
+      const json& number = as_json["distances"][s][t];
+      const double value = decoded[s * 3 + t];
+      if (number.is_null()) {
+        EXPECT_EQ(value, kInf);
+      } else {
+        EXPECT_EQ(std::bit_cast<std::uint64_t>(value),
+                  std::bit_cast<std::uint64_t>(number.get<double>()));
+      }
+    }
+  }
 }
 
 TEST(Results, MatrixKeepsUnreachablePairsExplicit) {
@@ -675,7 +751,7 @@ TEST(Results, ServerInfoHealthMetrics) {
   EXPECT_EQ(info["server_version"], "0.1.0");
   EXPECT_EQ(info["limits"], json(limits));
   EXPECT_EQ(info["limits"]["max_batch_requests"], 10);
-  EXPECT_EQ(info["encodings"], json::parse(R"(["json","f32le-base64"])"));
+  EXPECT_EQ(info["encodings"], json::parse(R"(["json","f32le-base64","f64le-base64"])"));
   EXPECT_EQ(info["methods"].size(), all_methods().size());
   EXPECT_EQ(info["methods"][0], "geodesic.distance");
   EXPECT_EQ(info["admin_enabled"], false);

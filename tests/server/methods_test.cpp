@@ -1,5 +1,7 @@
 // Every method end to end over a real socket, compared with in-process GeodesicQuery answers.
+#include <bit>
 #include <cmath>
+#include <limits>
 
 #include "core/geodesic/exact_geodesic.h"
 #include "protocol/base64.h"
@@ -223,6 +225,75 @@ TEST_F(MethodsTest, MatrixEqualsInProcess) {
   EXPECT_EQ(result["targets"], 3);
 }
 
+// The bits of a distance as the JSON encoding sends it (+inf for null: not reached).
+std::uint64_t json_bits(const json& number) {
+  return std::bit_cast<std::uint64_t>(number.is_null() ? std::numeric_limits<double>::infinity()
+                                                       : number.get<double>());
+}
+
+TEST_F(MethodsTest, F64Base64FieldAndMatrixAreTheJsonNumbersBitForBit) {
+  Client c(server_->port());
+  // A cutoff leaves vertices unreached: +inf in f64le-base64 where JSON has null.
+  const json params = {{"mesh", "spot"}, {"sources", {"v:0", "f:100:0.2:0.3:0.5"}},
+                       {"cutoff", 0.4}};
+  json f64_params = params;
+  f64_params["encoding"] = "f64le-base64";
+  const json as_json = c.result("geodesic.field", params);
+  const json as_f64 = c.result("geodesic.field", f64_params);
+  EXPECT_EQ(as_f64["encoding"], "f64le-base64");
+  EXPECT_EQ(as_f64["reached"], as_json["reached"]);
+  const std::vector<double> field =
+      protocol::decode_f64le_base64(as_f64["distances"].get<std::string>());
+  const std::vector<std::uint32_t> nearest =
+      protocol::decode_u32le_base64(as_f64["nearest_source"].get<std::string>());
+  ASSERT_EQ(field.size(), as_json["distances"].size());
+  std::size_t unreached = 0;
+  for (std::size_t v = 0; v < field.size(); ++v) {
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(field[v]), json_bits(as_json["distances"][v])) << v;
+    const json& k = as_json["nearest_source"][v];
+    EXPECT_EQ(nearest[v], k.is_null() ? 0xFFFFFFFFu : k.get<std::uint32_t>()) << v;
+    unreached += std::isinf(field[v]) ? 1 : 0;
+  }
+  EXPECT_GT(unreached, 0u);
+  EXPECT_EQ(field.size() - unreached, as_f64["reached"].get<std::size_t>());
+
+  const json sources = {"v:0", "v:1", "f:5:0.2:0.3:0.5"};
+  const json targets = {"v:2", "f:7:0.6:0.3:0.1", "s:7", "e:3:0.25"};
+  const json matrix_json =
+      c.result("geodesic.matrix", {{"mesh", "spot"}, {"sources", sources}, {"targets", targets}});
+  const json matrix_f64 = c.result("geodesic.matrix", {{"mesh", "spot"},
+                                                       {"sources", sources},
+                                                       {"targets", targets},
+                                                       {"encoding", "f64le-base64"}});
+  EXPECT_FALSE(matrix_json.contains("encoding"));
+  EXPECT_EQ(matrix_f64["encoding"], "f64le-base64");
+  EXPECT_EQ(matrix_f64["sources"], 3);
+  EXPECT_EQ(matrix_f64["targets"], 4);
+  EXPECT_EQ(matrix_f64["unreachable"], 0);
+  const std::vector<double> matrix =
+      protocol::decode_f64le_base64(matrix_f64["distances"].get<std::string>());
+  ASSERT_EQ(matrix.size(), 12u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    for (std::size_t k = 0; k < 4; ++k) {
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(matrix[i * 4 + k]),
+                json_bits(matrix_json["distances"][i][k]))
+          << i << "," << k;
+    }
+  }
+
+  // In a batch too, and f32le-base64 is refused for a matrix.
+  const json batch = c.result(
+      "batch", {{"requests",
+                 {{{"method", "geodesic.matrix"},
+                   {"params", {{"mesh", "spot"}, {"sources", sources}, {"targets", targets},
+                               {"encoding", "f64le-base64"}}}},
+                  {{"method", "geodesic.matrix"},
+                   {"params", {{"mesh", "spot"}, {"sources", sources}, {"targets", targets},
+                               {"encoding", "f32le-base64"}}}}}}});
+  EXPECT_EQ(batch["results"][0]["result"]["distances"], matrix_f64["distances"]);
+  EXPECT_EQ(batch["results"][1]["error"]["data"]["reason"], "InvalidParams");
+}
+
 TEST_F(MethodsTest, BatchAnswersEachEntryInOrder) {
   Client c(server_->port());
   const json result = c.result(
@@ -282,7 +353,7 @@ TEST_F(MethodsTest, ServerInfoHealthMetrics) {
   EXPECT_EQ(info["protocol_version"], 1);
   EXPECT_EQ(info["admin_enabled"], true);
   EXPECT_EQ(info["limits"]["max_line_bytes"], 1048576);
-  EXPECT_EQ(info["encodings"], json({"json", "f32le-base64"}));
+  EXPECT_EQ(info["encodings"], json({"json", "f32le-base64", "f64le-base64"}));
 
   const json health = c.result("server.health");
   EXPECT_EQ(health["status"], "ok");
@@ -348,6 +419,13 @@ TEST_F(MethodsTest, UnreachableIsAnErrorInDistanceAndNullInMatrix) {
   EXPECT_EQ(matrix["distances"][0][0], 0.0);
   EXPECT_TRUE(matrix["distances"][0][1].is_null());
   EXPECT_EQ(matrix["unreachable"], 1);
+  const json f64 = c.result("geodesic.matrix", {{"mesh", "two"},
+                                                {"sources", {"v:0"}},
+                                                {"targets", {"v:0", far}},
+                                                {"encoding", "f64le-base64"}});
+  EXPECT_EQ(f64["unreachable"], 1);
+  EXPECT_EQ(protocol::decode_f64le_base64(f64["distances"].get<std::string>()),
+            (std::vector<double>{0.0, std::numeric_limits<double>::infinity()}));
 }
 
 TEST(ConstantTimeEqual, ComparesWholeSecrets) {

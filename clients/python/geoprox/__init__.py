@@ -1,8 +1,10 @@
 """geoprox: Python client of the geoprox geodesic query daemon (geoproxd).
 
-Standard library only (numpy, if importable, decodes base64 distance fields and binary
-arrays). The wire protocol is docs/protocol.md (TCP) and geoproxd's HTTP API
-(``Client("http://127.0.0.1:7880")``); docs/clients.md shows how to use this package.
+Standard library only; numpy, if importable, decodes base64 distance fields and binary
+arrays, and gives points from arrays (``geoprox.faces(f, bary)``...) and results as arrays
+(``as_array=True``; :mod:`geoprox.arrays`). The wire protocol is docs/protocol.md (TCP) and
+geoproxd's HTTP API (``Client("http://127.0.0.1:7880")``); docs/clients.md shows how to use
+this package.
 
     import geoprox
 
@@ -21,11 +23,14 @@ from .client import (
     connect,
     request,
 )
+from .arrays import PointSet, faces, positions, vertices
 from .encoding import (
     HAVE_NUMPY,
     NOT_REACHED_SOURCE,
     decode_f32le_base64,
+    decode_f64le_base64,
     decode_field_result,
+    decode_matrix_result,
     decode_u32le_base64,
 )
 from .httpclient import DEFAULT_HTTP_PORT, BinaryArray, HttpClient
@@ -79,10 +84,16 @@ __all__ = [
     "parse_point",
     "format_point",
     "as_point",
+    "PointSet",
+    "vertices",
+    "faces",
+    "positions",
     "HAVE_NUMPY",
     "NOT_REACHED_SOURCE",
     "decode_f32le_base64",
+    "decode_f64le_base64",
     "decode_u32le_base64",
     "decode_field_result",
+    "decode_matrix_result",
     "__version__",
 ]

@@ -10,8 +10,10 @@ Three ways to send the same requests, with the same method signatures:
   ``batch`` method: one line, one answer) and :meth:`Client.call_many`.
 
 Results are the ``result`` objects of docs/protocol.md as dicts, except ``geodesic.field``
-results in the ``"f32le-base64"`` encoding, whose arrays are decoded (see
-:mod:`geoprox.encoding`). Failures raise :class:`~geoprox.errors.GeoproxError` subclasses.
+and ``geodesic.matrix`` results in a base64 encoding, whose arrays are decoded (see
+:mod:`geoprox.encoding`), and results asked for with ``as_array=True`` (or
+``Client(..., arrays=True)``), whose distances, fields and paths are numpy arrays (see
+:mod:`geoprox.arrays`). Failures raise :class:`~geoprox.errors.GeoproxError` subclasses.
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ from typing import (
     cast,
 )
 
-from .encoding import decode_field_result
+from .arrays import PointSet, field_arrays, matrix_arrays, path_arrays, require_numpy
+from .encoding import decode_field_result, decode_matrix_result
 from .errors import (
     GeoproxConnectionError,
     GeoproxError,
@@ -77,10 +80,15 @@ _SEND_BYTES = 256 * 1024
 
 @dataclass(frozen=True)
 class Request:
-    """One request: a method name and its params (``timeout_ms`` included, when given)."""
+    """One request: a method name and its params (``timeout_ms`` included, when given).
+
+    ``arrays``: its result is decoded into numpy arrays (``as_array=True``); for a ``batch``,
+    ``entry_arrays`` says it of each entry. Neither goes on the wire."""
 
     method: str
     params: dict[str, Any] = dataclass_field(default_factory=dict)
+    arrays: bool = False
+    entry_arrays: tuple[bool, ...] = ()
 
     def entry(self) -> dict[str, Any]:
         """The ``{"method", "params"}`` object of a ``batch`` entry."""
@@ -102,9 +110,17 @@ class _Methods(Generic[T]):
     :meth:`_submit`, whose return value it returns."""
 
     _admin_token: Optional[str] = None
+    #: Whether results of field, matrix and path are numpy arrays when a call does not say.
+    _arrays: bool = False
 
     def _submit(self, req: Request) -> T:
         raise NotImplementedError
+
+    def _want_arrays(self, as_array: Optional[bool]) -> bool:
+        wanted = self._arrays if as_array is None else bool(as_array)
+        if wanted:
+            require_numpy("as_array")
+        return wanted
 
     def _params(self, timeout_ms: Optional[int], **params: Any) -> dict[str, Any]:
         out = {k: v for k, v in params.items() if v is not None}
@@ -144,16 +160,24 @@ class _Methods(Generic[T]):
         )
 
     def path(
-        self, mesh: str, source: Point, target: Point, *, timeout_ms: Optional[int] = None
+        self,
+        mesh: str,
+        source: Point,
+        target: Point,
+        *,
+        as_array: Optional[bool] = None,
+        timeout_ms: Optional[int] = None,
     ) -> T:
         """``geodesic.path``: result ``distance`` and ``points`` (each ``face``, ``bary``,
-        ``position``)."""
+        ``position``). With ``as_array``, ``points`` is replaced by numpy arrays ``faces`` (n),
+        ``bary`` (n x 3) and ``xyz`` (n x 3)."""
         return self._submit(
             Request(
                 "geodesic.path",
                 self._params(
                     timeout_ms, mesh=mesh, source=as_point(source), target=as_point(target)
                 ),
+                arrays=self._want_arrays(as_array),
             )
         )
 
@@ -165,16 +189,30 @@ class _Methods(Generic[T]):
         sources: Optional[Sequence[Point]] = None,
         cutoff: Optional[float] = None,
         encoding: Optional[str] = None,
+        as_array: Optional[bool] = None,
         timeout_ms: Optional[int] = None,
     ) -> T:
         """``geodesic.field``: the distance of every vertex from ``source`` or from the nearest
-        of ``sources`` (a list given as ``source`` counts as ``sources``).
+        of ``sources`` (a list or a :class:`~geoprox.arrays.PointSet` given as ``source``
+        counts as ``sources``).
 
         ``encoding`` is ``"json"`` (the server's default: ``distances`` is a list with None
-        where not reached) or ``"f32le-base64"`` (decoded into a float32 array with ``inf``
-        where not reached; ``nearest_source`` into a uint32 array with ``0xFFFFFFFF``)."""
+        where not reached), ``"f32le-base64"`` (decoded into a float32 array with ``inf``
+        where not reached; ``nearest_source`` into a uint32 array with ``0xFFFFFFFF``) or
+        ``"f64le-base64"`` (a float64 array, ``inf`` where not reached). ``as_array``:
+        ``distances`` is a float64 numpy array with NaN where not reached (sent exactly),
+        ``nearest_source`` a uint32 one with ``0xFFFFFFFF``."""
+        arrays = self._want_arrays(as_array)
+        if arrays:
+            if encoding not in (None, "f64le-base64"):
+                raise ValueError(f"as_array takes the field as float64, not {encoding!r}")
+            encoding = "f64le-base64"
         single: Optional[Point] = None
-        if isinstance(source, (list, tuple)):
+        if isinstance(source, PointSet) and len(source) > 1:
+            if sources is not None:
+                raise TypeError("give source or sources, not both")
+            sources = source
+        elif isinstance(source, (list, tuple)):
             if sources is not None:
                 raise TypeError("give source or sources, not both")
             sources = source
@@ -191,6 +229,7 @@ class _Methods(Generic[T]):
                     cutoff=cutoff,
                     encoding=encoding,
                 ),
+                arrays=arrays,
             )
         )
 
@@ -200,10 +239,14 @@ class _Methods(Generic[T]):
         sources: Sequence[Point],
         targets: Sequence[Point],
         *,
+        as_array: Optional[bool] = None,
         timeout_ms: Optional[int] = None,
     ) -> T:
         """``geodesic.matrix``: ``distances[i][j]`` from ``sources[i]`` to ``targets[j]``
-        (None where unreachable, counted by ``unreachable``)."""
+        (None where unreachable, counted by ``unreachable``). With ``as_array``,
+        ``distances`` is a sources x targets float64 numpy array, NaN where unreachable, sent
+        exactly (``"f64le-base64"`` over TCP, raw float64 over HTTP)."""
+        arrays = self._want_arrays(as_array)
         return self._submit(
             Request(
                 "geodesic.matrix",
@@ -212,7 +255,9 @@ class _Methods(Generic[T]):
                     mesh=mesh,
                     sources=[as_point(p) for p in sources],
                     targets=[as_point(p) for p in targets],
+                    encoding="f64le-base64" if arrays else None,
                 ),
+                arrays=arrays,
             )
         )
 
@@ -228,8 +273,14 @@ class _Methods(Generic[T]):
         ``(method, params)`` tuples or ``{"method", "params"}`` dicts. With a :class:`Client`
         the answer is a list in the same order, each item the entry's result or the
         :class:`ServerError` it failed with (entries fail alone; nothing is raised for them)."""
-        entries = [_to_request(r).entry() for r in requests]
-        return self._submit(Request("batch", self._params(timeout_ms, requests=entries)))
+        items = [_to_request(r) for r in requests]
+        return self._submit(
+            Request(
+                "batch",
+                self._params(timeout_ms, requests=[r.entry() for r in items]),
+                entry_arrays=tuple(r.arrays for r in items),
+            )
+        )
 
     # ---- meshes and server ----
 
@@ -401,6 +452,7 @@ class Pipeline(_Methods[Pending]):
         self._client = client
         self._timeout = timeout
         self._admin_token = client._admin_token
+        self._arrays = client._arrays
         self._queue: list[Pending] = []
 
     def _submit(self, req: Request) -> Pending:
@@ -454,6 +506,8 @@ class Client(_Methods[Any]):
             connection, client timeout...), waiting ``retry_after_ms`` or an exponential
             backoff from ``retry_backoff`` seconds. Admin methods and pipelines never retry.
         use_numpy: decode base64 fields with numpy (None: if importable).
+        arrays: field, matrix and path results are numpy arrays unless a call says otherwise
+            with ``as_array`` (see :mod:`geoprox.arrays`); needs numpy.
         max_line_bytes: the server's line limit as far as the client knows (``server_info()``
             updates it); an error reply with a null id (a line over the limit) is matched to
             the oldest request longer than this, else to the oldest request.
@@ -488,8 +542,12 @@ class Client(_Methods[Any]):
         retry_backoff: float = 0.05,
         use_numpy: Optional[bool] = None,
         max_line_bytes: int = 1 << 20,
+        arrays: bool = False,
         connect: bool = True,
     ) -> None:
+        if arrays:
+            require_numpy("Client(arrays=True)")
+        self._arrays = arrays
         self.host = host or os.environ.get("GEOPROX_HOST") or DEFAULT_HOST
         env_port = os.environ.get("GEOPROX_PORT")
         self.port = int(port if port is not None else (env_port or DEFAULT_PORT))
@@ -721,7 +779,13 @@ class Client(_Methods[Any]):
 
     def _decode(self, req: Request, result: Any) -> Any:
         if req.method == "geodesic.field" and isinstance(result, dict):
-            return decode_field_result(result, self.use_numpy)
+            result = decode_field_result(result, self.use_numpy)
+            return field_arrays(result) if req.arrays else result
+        if req.method == "geodesic.matrix" and isinstance(result, dict):
+            result = decode_matrix_result(result, self.use_numpy)
+            return matrix_arrays(result) if req.arrays else result
+        if req.method == "geodesic.path" and isinstance(result, dict) and req.arrays:
+            return path_arrays(result)
         if req.method == "batch" and isinstance(result, dict):
             entries = req.params.get("requests", [])
             out: list[Any] = []
@@ -731,7 +795,8 @@ class Client(_Methods[Any]):
                 else:
                     sub = item.get("result") if isinstance(item, dict) else None
                     method = entries[i].get("method", "") if i < len(entries) else ""
-                    out.append(self._decode(Request(method), sub))
+                    arrays = i < len(req.entry_arrays) and req.entry_arrays[i]
+                    out.append(self._decode(Request(method, arrays=arrays), sub))
             return out
         return result
 

@@ -13,7 +13,9 @@ is replaced and the request sent again once, when repeating it is harmless (ever
 admin ones).
 
 :meth:`HttpClient.array` fetches one array of a field, a matrix or a mesh's geometry from the
-resource endpoints as raw little-endian binary (no JSON, no base64, float64 by default).
+resource endpoints as raw little-endian binary (no JSON, no base64, float64 by default). Matrices
+and one-source fields asked for with ``as_array`` come that way too; fields of several sources
+(whose ``nearest_source`` is a second array) come through ``/v1/rpc`` in ``"f64le-base64"``.
 """
 
 from __future__ import annotations
@@ -214,6 +216,7 @@ class HttpClient(Client):
         use_numpy: Optional[bool] = None,
         max_line_bytes: int = 1 << 20,
         max_batch_requests: int = 1000,
+        arrays: bool = False,
         connect: bool = True,
     ) -> None:
         self.url = host or os.environ.get("GEOPROX_HOST") or ""
@@ -235,6 +238,7 @@ class HttpClient(Client):
             retry_backoff=retry_backoff,
             use_numpy=use_numpy,
             max_line_bytes=max_line_bytes,
+            arrays=arrays,
             connect=False,
         )
         #: The server's max_batch_requests as far as the client knows (server_info() updates it).
@@ -398,11 +402,16 @@ class HttpClient(Client):
         """Sends the requests of ``pendings`` and resolves each with its reply. Raises
         connection, timeout and protocol errors after failing the unanswered requests."""
         with self._lock:
-            encoded = [(p, *self._envelope(p.request)) for p in pendings]
+            binary = [p for p in pendings if _binary_route(p.request)]
+            encoded = [
+                (p, *self._envelope(p.request)) for p in pendings if not _binary_route(p.request)
+            ]
             if timeout is not None:
                 slack = max((p.request.params.get("timeout_ms") or 0) for p in pendings) / 1000.0
                 timeout = max(timeout, slack + 1.0) if slack else timeout
             try:
+                for pending in binary:
+                    self._run_binary(pending, timeout)
                 for chunk in self._chunks(encoded):
                     self._run_chunk(chunk, timeout)
             except GeoproxError as error:
@@ -410,6 +419,37 @@ class HttpClient(Client):
                     if not p.done():
                         p._resolve(error=error)
                 raise
+
+    def _run_binary(self, pending: Pending, timeout: Optional[float]) -> None:
+        """A matrix or one-source field wanted as arrays, from its resource endpoint as raw
+        float64: the result dict :func:`~geoprox.arrays.matrix_arrays` or
+        :func:`~geoprox.arrays.field_arrays` makes of the JSON one."""
+        req = pending.request
+        params = {k: v for k, v in req.params.items() if k not in ("mesh", "encoding")}
+        mesh = str(req.params.get("mesh", ""))
+        is_matrix = req.method == "geodesic.matrix"
+        try:
+            got = self.array(mesh, "matrix" if is_matrix else "field", params,
+                             dtype="float64", timeout=timeout)
+        except ServerError as error:
+            pending._resolve(error=error)
+            return
+        np = _np
+        if got.dtype != "float64":
+            raise GeoproxProtocolError(f"{req.method}: binary reply of {got.dtype}, not float64")
+        # A flat array.array when the client has use_numpy=False: arrays were asked for.
+        values = np.asarray(got.values, dtype=np.float64).reshape(got.shape)
+        reachable = int(np.isfinite(values).sum())
+        result: dict[str, Any] = {"mesh": mesh, "mesh_version": got.mesh_version}
+        if is_matrix:
+            if len(got.shape) != 2:
+                raise GeoproxProtocolError(f"matrix of shape {got.shape}")
+            result.update(sources=got.shape[0], targets=got.shape[1],
+                          unreachable=values.size - reachable, distances=values)
+        else:
+            result.update(vertices=values.size, reached=reachable,
+                          cutoff=req.params.get("cutoff"), distances=values)
+        pending._resolve(result=result)
 
     def _chunks(
         self, encoded: list[tuple[Pending, int, bytes]]
@@ -609,6 +649,16 @@ class HttpClient(Client):
                 raise reply.error(document["error"])
             raise reply.status_error()
         return _binary_array(reply, self.use_numpy)
+
+
+def _binary_route(req: Request) -> bool:
+    """True for a request whose arrays come from a resource endpoint as raw float64: a matrix,
+    or a field of one source, asked for with ``as_array``."""
+    if not req.arrays:
+        return False
+    if req.method == "geodesic.matrix":
+        return True
+    return req.method == "geodesic.field" and "source" in req.params
 
 
 def _binary_array(reply: _Reply, use_numpy: Optional[bool]) -> BinaryArray:

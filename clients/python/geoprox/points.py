@@ -125,14 +125,21 @@ def format_point(point: Point) -> str:
 def as_point(point: Point) -> Point:
     """Checks the type of a point argument and returns what goes on the wire.
 
-    Strings and mappings are passed as they are (a mapping is copied into a plain dict).
-    Raises TypeError for anything else, so ``distance(mesh, 3, 4)`` fails loudly instead of
-    guessing whether 3 is a vertex or a sample.
+    Strings and mappings are passed as they are (a mapping is copied into a plain dict), and a
+    :class:`~geoprox.arrays.PointSet` of one point is that point. Raises TypeError for anything
+    else, so ``distance(mesh, 3, 4)`` fails loudly instead of guessing whether 3 is a vertex or
+    a sample, and an ndarray must say what it holds (``geoprox.vertices(ids)``...).
     """
     if isinstance(point, str):
         return point
     if isinstance(point, Mapping):
         return dict(point)
+    from .arrays import PointSet
+
+    if isinstance(point, PointSet):
+        if len(point) != 1:
+            raise TypeError(f"one point is expected here, not a PointSet of {len(point)}")
+        return point[0]
     raise TypeError(
         f"a point is a string such as 'v:12' or a dict such as geoprox.vertex(12), "
         f"not {type(point).__name__}"

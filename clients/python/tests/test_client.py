@@ -363,6 +363,32 @@ class QueryTest(LiveTestCase):
         self.assertIsInstance(decoded, array.array)
         self.assertEqual(list(decoded), [float(d) for d in as_f32["distances"]])
 
+    def test_f64_encodings_are_the_json_numbers_without_numpy(self) -> None:
+        with daemon().client(self.transport, use_numpy=False) as plain:
+            sources = ["v:0", "f:100:0.2:0.3:0.5"]
+            as_json = plain.field("spot", sources, cutoff=0.3)
+            as_f64 = plain.field("spot", sources, cutoff=0.3, encoding="f64le-base64")
+            self.assertEqual(as_f64["encoding"], "f64le-base64")
+            self.assertIsInstance(as_f64["distances"], array.array)
+            self.assertEqual(as_f64["distances"].typecode, "d")
+            want = [math.inf if d is None else d for d in as_json["distances"]]
+            self.assertEqual([struct.pack("<d", d) for d in as_f64["distances"]],
+                             [struct.pack("<d", d) for d in want])
+            self.assertIn(math.inf, want)
+            unreached = [geoprox.NOT_REACHED_SOURCE if k is None else k
+                         for k in as_json["nearest_source"]]
+            self.assertEqual(list(as_f64["nearest_source"]), unreached)
+            matrix = plain.call("geodesic.matrix", {"mesh": "spot", "sources": sources,
+                                                    "targets": ["v:2", "v:3", "s:7"],
+                                                    "encoding": "f64le-base64"})
+            rows = plain.matrix("spot", sources, ["v:2", "v:3", "s:7"])["distances"]
+        self.assertEqual([list(row) for row in matrix["distances"]], rows)
+        if not geoprox.HAVE_NUMPY:
+            with self.assertRaisesRegex(RuntimeError, "as_array needs numpy"):
+                self.client.matrix("spot", ["v:0"], ["v:1"], as_array=True)
+            with self.assertRaisesRegex(RuntimeError, r"geoprox.faces\(\) needs numpy"):
+                geoprox.faces([0], [[1, 0, 0]])
+
     def test_field_several_sources_with_cutoff(self) -> None:
         c = self.client
         sources: list[geoprox.Point] = ["v:0", geoprox.vertex(1500)]
@@ -456,7 +482,7 @@ class InfoTest(LiveTestCase):
         info = self.client.server_info()
         self.assertEqual(info["protocol_version"], 1)
         self.assertTrue(info["admin_enabled"])
-        self.assertEqual(info["encodings"], ["json", "f32le-base64"])
+        self.assertEqual(info["encodings"], ["json", "f32le-base64", "f64le-base64"])
         self.assertEqual(self.client.max_line_bytes, info["limits"]["max_line_bytes"])
         for method in [
             "geodesic.distance",
