@@ -23,6 +23,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -265,6 +266,24 @@ def main() -> None:
                 check(bool(np.isnan(field).any()), "the cutoff leaves vertices unreached")
                 check([None if k < 0 else int(k) for k in nearest] == result["nearest_source"],
                       "nearest sources differ")
+
+        # Python threads querying one graph at once (each call releases the GIL): the pool
+        # hands each its own scratch, and the answers are the serial ones.
+        s = take("face", forms["face"], np.arange(60))
+        t = take("position", forms["position"], np.arange(60))
+        serial = g.matrix(s, t, threads=1)
+        results: list = [None] * 4
+
+        def work(k: int) -> None:
+            results[k] = g.matrix(s, t, threads=1)
+
+        workers = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+        for w in workers:
+            w.start()
+        for w in workers:
+            w.join()
+        check(all(np.array_equal(r, serial, equal_nan=True) for r in results),
+              "matrices computed by concurrent Python threads differ from the serial one")
 
         # Errors: the core's typed errors as Python exceptions with the reason.
         for call, reason in (
