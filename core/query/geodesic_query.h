@@ -190,7 +190,8 @@ class GeodesicQuery {
   DistanceField field(std::span<const SurfacePoint> sources, QueryScratch& scratch,
                       const DistanceFieldOptions& options = {}) const;
   /// Row-major |sources| x |targets| distances (kInfinity for unreachable pairs); equal to
-  /// distance() for each pair.
+  /// distance() for each pair up to rounding (the searches shared among targets add the same
+  /// lengths in another order: a few units in the last place).
   std::vector<double> matrix(std::span<const SurfacePoint> sources,
                              std::span<const SurfacePoint> targets, QueryScratch& scratch) const;
 
