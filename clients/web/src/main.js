@@ -32,9 +32,20 @@ const api = new Api(state.api, sessionStorage.getItem('geoprox-token') || '');
 
 // ---------------------------------------------------------------- three.js scene
 const view = $('view');
+/** The WebGL renderer's name, and whether it draws in software (SwiftShader, llvmpipe: a machine
+ *  without a GPU), where multisampling multiplies the cost of every frame. */
+function rendererName() {
+  const gl = document.createElement('canvas').getContext('webgl2');
+  if (!gl) return { name: '', software: false };
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+  gl.getExtension('WEBGL_lose_context')?.loseContext();
+  return { name, software: /swiftshader|llvmpipe|softpipe|software/i.test(name) };
+}
+const gpu = rendererName();
 let renderer;
 try {
-  renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+  renderer = new THREE.WebGLRenderer({ antialias: !gpu.software, preserveDrawingBuffer: true });
 } catch (e) {
   showError(`This browser gives no WebGL 2 context, which the viewer needs: ${e.message}`);
   throw e;
@@ -462,10 +473,17 @@ async function updateField(t0 = performance.now()) {
       } else da.array[i] = -1;
     }
     da.needsUpdate = true;
+    // One source: every vertex's nearest is 0, uploaded once rather than at every click.
     const na = geometry.attributes.nearest;
-    if (nearest) for (let i = 0; i < nearest.length; i++) na.array[i] = nearest[i] === 0xffffffff ? -1 : nearest[i];
-    else na.array.fill(0);
-    na.needsUpdate = true;
+    if (nearest) {
+      for (let i = 0; i < nearest.length; i++) na.array[i] = nearest[i] === 0xffffffff ? -1 : nearest[i];
+      na.needsUpdate = true;
+      na.allZero = false;
+    } else if (!na.allZero) {
+      na.array.fill(0);
+      na.needsUpdate = true;
+      na.allZero = true;
+    }
     state.fieldMax = max;
     uniforms.uHasField.value = 1;
     if (several && !state.colour) $('colour').value = 'nearest';
@@ -667,6 +685,7 @@ const hook = {
   get mesh() {
     return mesh;
   },
+  gpu, // the renderer's name and whether it is software (then no multisampling)
   syncFrames: false, // the test's timing: a frame counts once drawn
   meshSeq: 0,
   fieldSeq: 0,

@@ -291,9 +291,17 @@ async function main() {
     const glInfo = await page.evaluate(() => {
       const gl = window.__geoprox.renderer.getContext();
       const ext = gl.getExtension('WEBGL_debug_renderer_info');
-      return { version: gl.getParameter(gl.VERSION), renderer: ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : '?' };
+      return {
+        version: gl.getParameter(gl.VERSION),
+        renderer: ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : '?',
+        software: window.__geoprox.gpu.software,
+        samples: gl.getParameter(gl.SAMPLES),
+      };
     });
-    console.log(`WebGL: ${glInfo.version}; ${glInfo.renderer}; flags ${glFlags.join(' ')}`);
+    console.log(`WebGL: ${glInfo.version}; ${glInfo.renderer}; flags ${glFlags.join(' ')}; ` +
+      `${glInfo.software ? 'software' : 'GPU'}, ${glInfo.samples} samples per pixel`);
+    // A software rasteriser draws without multisampling (the page's choice; a GPU keeps it).
+    if (glInfo.software) check(glInfo.samples <= 1, 'no multisampling on a software rasteriser');
     const listText = await page.$eval('#meshes', (e) => e.textContent);
     check(listText.includes(meshId) && listText.includes('ready'), `the mesh list shows ${meshId}, ready`);
 
@@ -508,10 +516,19 @@ async function main() {
       `the cutoff slider at 30% greys the far field (${cut.viridisPixels} viridis pixels; legend "${legend}")`);
     await setSlider(1000);
 
-    // Several sources, coloured by nearest source.
+    // Several sources, coloured by nearest source: a point still visible after the orbit, at
+    // its screen position from the camera of now.
+    const second = await page.evaluate((points) => {
+      for (const point of points) {
+        const s = window.__geoprox.screenOf(point);
+        if (s.visible) return s;
+      }
+      return null;
+    }, visible.slice(3).map((v) => v.point));
+    if (!second) throw new Error('no sample point visible after the orbit');
     before = await seq('fieldSeq');
     await page.keyboard.down('Alt');
-    await page.mouse.click(visible[3].x, visible[3].y);
+    await page.mouse.click(second.x, second.y);
     await page.keyboard.up('Alt');
     await waitSeq('fieldSeq', before);
     const multi = await page.evaluate(() => ({
