@@ -58,11 +58,9 @@ SurfacePoint canonical_surface_point(const TriangleMesh& mesh, const SurfacePoin
   }
   if (zeros >= 2) return SurfacePoint::vertex(mesh.face(f)[largest]);
   if (zeros == 0) {
-    // Barycentrics accepted off the simplex (their sum within tolerance of 1) name their
-    // normalized point, as parse_surface_point reads them.
-    const double sum = point.bary[0] + point.bary[1] + point.bary[2];
-    if (std::abs(sum - 1) <= kBarycentricRoundingTolerance) return point;
-    return SurfacePoint::face(f, point.bary[0] / sum, point.bary[1] / sum, point.bary[2] / sum);
+    SurfacePoint normalized = point;
+    normalize_barycentrics(normalized.bary);
+    return normalized;
   }
   // On the edge opposite corner c: halfedge 3f + (c+1)%3, from corner (c+1)%3 to (c+2)%3.
   const int a = (zero_corner + 1) % 3, b = (zero_corner + 2) % 3;

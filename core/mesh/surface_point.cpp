@@ -144,6 +144,14 @@ double parse_number(const std::string& text, const std::string& field) {
 
 }  // namespace
 
+void normalize_barycentrics(std::array<double, 3>& bary) {
+  const double off = std::abs(bary[0] + bary[1] + bary[2] - 1);
+  if (off <= kBarycentricSumTolerance && off > kBarycentricRoundingTolerance) {
+    const double sum = bary[0] + bary[1] + bary[2];
+    for (double& b : bary) b /= sum;
+  }
+}
+
 SurfacePoint parse_surface_point(const std::string& text) {
   std::vector<std::string> fields;
   std::size_t start = 0;
@@ -163,11 +171,7 @@ SurfacePoint parse_surface_point(const std::string& text) {
     SurfacePoint p =
         SurfacePoint::face(parse_id(text, fields[1]), parse_number(text, fields[2]),
                            parse_number(text, fields[3]), parse_number(text, fields[4]));
-    const double sum = p.bary[0] + p.bary[1] + p.bary[2];
-    if (std::abs(sum - 1) <= kBarycentricSumTolerance &&
-        std::abs(sum - 1) > kBarycentricRoundingTolerance) {
-      for (double& b : p.bary) b /= sum;
-    }
+    normalize_barycentrics(p.bary);
     return p;
   }
   if (kind != "v" && kind != "e" && kind != "f") bad_syntax(text, "unknown kind '" + kind + "'");

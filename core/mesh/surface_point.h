@@ -48,6 +48,12 @@ struct SurfacePoint {
   std::string to_string() const;
 };
 
+/// Barycentrics accepted off the simplex name their normalized point: divides `bary` by its sum
+/// when that sum is within kBarycentricSumTolerance of 1 but off by more than rounding
+/// (kBarycentricRoundingTolerance); other coordinates, NaN included, stay as they are, so that a
+/// point written back and read again is the same point.
+void normalize_barycentrics(std::array<double, 3>& bary);
+
 /// Parses the command-line point syntax `v:ID`, `e:ID:t`, `f:ID:b0:b1:b2`; throws InvalidInput
 /// (BadPointSyntax) naming the text. Does not check ids against a mesh: call validate().
 SurfacePoint parse_surface_point(const std::string& text);

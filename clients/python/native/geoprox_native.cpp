@@ -193,13 +193,8 @@ GivenPoints parse_points(const py::handle& value, const std::string& what) {
     given.points.reserve(static_cast<std::size_t>(faces.shape(0)));
     for (py::ssize_t i = 0; i < faces.shape(0); ++i) {
       std::array<double, 3> w{b(i, 0), b(i, 1), b(i, 2)};
-      // As the protocol's parser does: sums off by more than rounding are divided by the sum;
-      // the core checks the coordinates themselves.
-      const double sum = w[0] + w[1] + w[2];
-      if (std::isfinite(sum) && std::abs(sum - 1) <= kBarycentricSumTolerance &&
-          std::abs(sum - 1) > kBarycentricRoundingTolerance) {
-        for (double& x : w) x /= sum;
-      }
+      // As the protocol's parser does; the core checks the coordinates themselves.
+      normalize_barycentrics(w);
       given.points.push_back(
           SurfacePoint::face(checked_id(f(i), what + " faces", i), w[0], w[1], w[2]));
     }
