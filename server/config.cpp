@@ -209,7 +209,7 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   const Reader top(document, origin);
   top.only({"bind", "port", "admin_bind", "admin_port", "http_bind", "http_port",
             "http_cors_origins", "http_static_dir", "compute_threads", "io_threads",
-            "io_coalesce_us", "split_near_pairs", "build_threads", "data_dir", "graph_dir",
+            "io_coalesce_us", "io_slice_us", "split_near_pairs", "build_threads", "data_dir", "graph_dir",
             "log_level", "log_json", "admin_token", "query_token", "shutdown_timeout_ms",
             "not_ready_retry_after_ms", "limits", "meshes"});
   top.string("bind", config.bind);
@@ -241,6 +241,12 @@ Config parse_config(const json& document, const fs::path& base_dir, const std::s
   top.integer("compute_threads", config.compute_threads, 0, 1024);
   top.integer("io_threads", config.io_threads, 1, 64);
   top.integer("io_coalesce_us", config.io_coalesce_us, 0, 10000);
+  top.integer("io_slice_us", config.io_slice_us, 0, 100000);
+  if (config.io_slice_us != 0 && config.io_slice_us < 100) {
+    throw ConfigError(top.name("io_slice_us") +
+                      ": 0 (the kernel's default) or 100 to 100000 microseconds (the range the "
+                      "kernel accepts), not " + std::to_string(config.io_slice_us));
+  }
   top.boolean("split_near_pairs", config.split_near_pairs);
   top.integer("build_threads", config.build_threads, 0, 1024);
   std::string data_dir = ".";

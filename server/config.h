@@ -89,6 +89,11 @@ struct Config {
   /// Under load (4 requests per compute thread waiting), an I/O thread pauses this long (us)
   /// between its rounds of events, so replies and reads go in batches; 0: never.
   unsigned io_coalesce_us = 500;
+  /// The scheduler time slice the I/O threads ask for (us; Linux 6.12+, server/thread_slice.h):
+  /// shorter than the compute threads', so that a woken I/O thread preempts one at once and a
+  /// finished answer leaves without waiting for a core. 0: the kernel's default; else 100 to
+  /// 100000.
+  unsigned io_slice_us = 100;
   /// A near pair's two exact solves (most of its time) run on two compute threads when one of
   /// them is idle, so that at low load such a query takes about half as long.
   bool split_near_pairs = true;

@@ -25,6 +25,7 @@
 #include "server/metrics.h"
 #include "server/registry.h"
 #include "server/service.h"
+#include "server/thread_slice.h"
 
 namespace geoprox::server {
 
@@ -166,6 +167,12 @@ void Server::Impl::start_io_threads() {
   for (unsigned i = 0; i < config.io_threads; ++i) {
     io_threads.emplace_back([this, i] {
       name_this_thread("gp-io-" + std::to_string(i));
+      if (config.io_slice_us > 0) {
+        const auto refused = request_thread_slice(std::chrono::microseconds(config.io_slice_us));
+        if (refused && i == 0) {
+          spdlog::info("io_slice_us: {}; the I/O threads keep the kernel's time slice", *refused);
+        }
+      }
       for (;;) {
         try {
           run_io();

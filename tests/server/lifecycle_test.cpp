@@ -10,10 +10,15 @@
 #include <sys/wait.h>
 
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <sstream>
+#include <thread>
+#include <vector>
 
+#include "server/compute_pool.h"
 #include "server/service.h"
+#include "server/thread_slice.h"
 #include "tests/core/test_meshes.h"
 #include "tests/server/server_test_support.h"
 
@@ -578,6 +583,8 @@ TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {
   EXPECT_EQ(config.meshes[1].graph_path, source_dir() / "var/graphs/dragon.geoprox");
   EXPECT_TRUE(config.split_near_pairs);
   EXPECT_FALSE(parse_config(json{{"split_near_pairs", false}}, "/tmp").split_near_pairs);
+  EXPECT_EQ(config.io_slice_us, 100u);
+  EXPECT_EQ(parse_config(json{{"io_slice_us", 0}}, "/tmp").io_slice_us, 0u);
 
   auto refused = [&](const json& d) -> std::string {
     try {
@@ -595,6 +602,8 @@ TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {
   EXPECT_NE(refused({{"port", 70000}}).find("port"), std::string::npos);
   EXPECT_NE(refused({{"log_level", "loud"}}).find("log_level"), std::string::npos);
   EXPECT_NE(refused({{"split_near_pairs", 1}}).find("split_near_pairs"), std::string::npos);
+  EXPECT_NE(refused({{"io_slice_us", 50}}).find("io_slice_us"), std::string::npos);
+  EXPECT_NE(refused({{"io_slice_us", 200000}}).find("io_slice_us"), std::string::npos);
   EXPECT_NE(refused({{"meshes", {{{"id", "../x"}, {"mesh", "a.obj"}}}}}).find("id"),
             std::string::npos);
   EXPECT_NE(refused({{"meshes", {{{"id", "a"}, {"mesh", "a.obj"}}, {{"id", "a"}, {"mesh", "b.obj"}}}}})
@@ -606,6 +615,65 @@ TEST(Config, ParsesEveryKeyAndRefusesUnknownOnes) {
   EXPECT_NE(refused({{"meshes", {{{"id", "a"}, {"mesh", "a.obj"}, {"sampling", "best"}}}}})
                 .find("sampling"),
             std::string::npos);
+}
+
+// The time slice of a thread as the kernel reports it (ns; /proc/self/task/TID/sched, EEVDF
+// kernels), or -1 when it reports none.
+long long reported_slice_ns(const fs::path& task) {
+  std::ifstream in(task / "sched");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("se.slice", 0) == 0) return std::stoll(line.substr(line.find(':') + 1));
+  }
+  return -1;
+}
+
+// The task directories of this process's threads named `name`.
+std::vector<fs::path> threads_named(const std::string& name) {
+  std::vector<fs::path> found;
+  for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(task.path() / "comm");
+    std::string text;
+    if (std::getline(comm, text) && text == name) found.push_back(task.path());
+  }
+  return found;
+}
+
+TEST(Threads, IoThreadsAskForTheConfiguredTimeSlice) {
+  if (reported_slice_ns("/proc/thread-self") < 0) {
+    GTEST_SKIP() << "this kernel reports no time slice (/proc/*/sched has no se.slice)";
+  }
+  // Kernels before 6.12 report a slice but ignore the one asked for: try it on a thread first.
+  long long probe = -1;
+  std::thread([&] {
+    name_this_thread("gp-slice-probe");
+    if (!request_thread_slice(std::chrono::microseconds(300))) {
+      probe = reported_slice_ns("/proc/thread-self");
+    }
+  }).join();
+  if (probe != 300'000) GTEST_SKIP() << "this kernel ignores custom time slices (Linux 6.12+)";
+
+  TestData data;
+  Config config = spot_config(data);
+  config.io_threads = 2;
+  config.io_slice_us = 250;
+  RunningServer server(config);
+  const auto io = threads_named("gp-io-0"), io1 = threads_named("gp-io-1"),
+             compute = threads_named("gp-compute-0");
+  ASSERT_EQ(io.size(), 1u);
+  ASSERT_EQ(io1.size(), 1u);
+  ASSERT_EQ(compute.size(), 1u);
+  EXPECT_EQ(reported_slice_ns(io[0]), 250'000);
+  EXPECT_EQ(reported_slice_ns(io1[0]), 250'000);
+  // The compute threads keep the kernel's default, the main thread's.
+  EXPECT_EQ(reported_slice_ns(compute[0]), reported_slice_ns("/proc/thread-self"));
+  EXPECT_NE(reported_slice_ns(compute[0]), 250'000);
+  // Queries are answered as ever.
+  Client c(server.port());
+  EXPECT_GT(c.result("geodesic.distance", {{"mesh", "spot"}, {"source", {{"vertex", 0}}},
+                                           {"target", {{"vertex", 100}}}})["distance"]
+                .get<double>(),
+            0);
 }
 
 TEST(Config, EnvironmentOverridesLogLevelAndAdminToken) {
