@@ -4,7 +4,8 @@
 //   query_band_bench MESH GRAPH [--pairs N] [--seed X] [--exact-within X] [--exact-bands]
 //
 // GRAPH is a graph file built for MESH (geoprox build). For each band of geodesic distance (0 to
-// rho/2, rho/2 to rho, rho to 2 rho; rho the graph's link radius), N pairs (default 400): s a
+// rho/2, rho/2 to rho, rho to 2 rho, then 2 to 3 and 3 to 4 rho, the near pairs that are refined;
+// rho the graph's link radius), N pairs (default 400): s a
 // random face point (uniform over faces), t a random vertex whose exact distance from s lies in
 // the band. Reports the median, p90 and p99 time of GeodesicQuery::distance and ::path on one
 // thread, and how many answers were exact (--exact-within: GeodesicQueryOptions::exact_within,
@@ -114,7 +115,8 @@ int main(int argc, char** argv) {
     Rng rng{settings.seed};
 
     for (const auto& [lo, hi] :
-         {std::pair{0.0, 0.5}, std::pair{0.5, 1.0}, std::pair{1.0, 2.0}}) {
+         {std::pair{0.0, 0.5}, std::pair{0.5, 1.0}, std::pair{1.0, 2.0}, std::pair{2.0, 3.0},
+          std::pair{3.0, 4.0}}) {
       const auto pairs = band_pairs(mesh, reference, rng, lo * rho, hi * rho, settings.pairs);
       std::vector<double> distance_ms, path_ms;
       std::size_t exact = 0;

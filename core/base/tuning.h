@@ -189,6 +189,10 @@ inline constexpr double kNearRadius = 0.7;
 /// ... then on while the disk has done less work than such a disk takes on average, up to this
 /// many times kNearRadius.
 inline constexpr double kNearReach = 3;
+/// A near disk directed at its pair's other point (under the mesh's own lengths) does at most
+/// this share of that average work: it keeps only the part of the disk that a path shorter than
+/// the pair's graph answer can cross, and so reaches farther on less work.
+inline constexpr double kDirectedNearWork = 0.5;
 /// Samples whose disks out to kNearRadius measure that average work (taken at even steps of
 /// the samples' order: farthest-point sampling starts at the extremities).
 inline constexpr std::uint32_t kNearProbeSamples = 15;

@@ -74,14 +74,21 @@ struct ExactGeodesicOptions {
   /// nearest this many vertices, whatever the triangles' sizes. Checked every 16 queue pops
   /// once that many vertices are reached, so the solve may settle a few more.
   std::size_t stop_after_vertices = 0;
-  /// Goal-directed, for a solve to one target: that target's position in space, when the edge
-  /// lengths are the mesh's own (the chords of its positions: not under another metric), so
-  /// that the straight line to it bounds every point's geodesic distance to the target from
-  /// below. Windows and pseudo-sources whose distance so far plus that bound exceeds the stop
-  /// (max_distance, or the target's current estimate) are dropped: the solve explores an
-  /// ellipse around the shortest path instead of a disk. Only the target's distance and the
-  /// path to it are then exact; other points' values are upper bounds.
+  /// Goal-directed, for a solve to one target (or to none, with a goal_limit): its position in
+  /// space, when the edge lengths are the mesh's own (the chords of its positions: not under
+  /// another metric), so that the straight line to it bounds every point's geodesic distance
+  /// to the target from below. Windows and pseudo-sources whose distance so far plus that bound
+  /// exceeds the stop (max_distance, or the target's current estimate) are dropped: the solve
+  /// explores an ellipse around the shortest path instead of a disk. Only the target's distance
+  /// and the path to it are then exact; other points' values are upper bounds.
   std::optional<Vec3> goal;
+  /// With a goal: the bound on distance plus straight-line distance to the goal past which
+  /// windows are dropped, in place of max_distance (or the target's estimate), which then
+  /// bounds the distance alone. The solve explores the part of its disk that a path to the goal
+  /// no longer than this bound can cross; points of that part get exact distances (it holds
+  /// their geodesics), others upper bounds or none. Infinity (the default): the stop bounds
+  /// both.
+  double goal_limit = kInfinity;
   /// Polled every 1024 queue pops; the solve throws Interrupted when it fires. Not owned.
   const QueryInterrupt* interrupt = nullptr;
 };

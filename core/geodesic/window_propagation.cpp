@@ -648,8 +648,8 @@ GEOPROX_INLINE_CALLEES
 void WindowPropagation::propagate(std::uint32_t index) {
   Window w = windows_[index];
   if (w.key == kInfinity) return;  // dropped since it was queued (it is queued only once)
-  // The target's estimate may have fallen since the window was stored.
-  if (goal_ && off_goal(w.key, goal_bound(w))) return;
+  // The target's estimate may have fallen since the window was stored (a goal_limit stays).
+  if (goal_ && goal_limit_ == kInfinity && off_goal(w.key, goal_bound(w))) return;
   // Not trimmed again against its corners: that rarely changes a popped window and costs much
   // of a solve. A window that a newer one trimmed keeps its
   // old key, a lower bound of its distance: it is propagated a little early, which keeps the

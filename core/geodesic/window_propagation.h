@@ -310,7 +310,8 @@ class WindowPropagation {
   double goal_bound(std::uint32_t v) const { return norm(mesh_->position(v) - *goal_); }
   double goal_bound(const Window& w) const;
   bool off_goal(double key, double bound) const {
-    return key + bound > store_limit_ * (1 + tuning::kGoalSlack);
+    const double stop = goal_limit_ < kInfinity ? goal_limit_ : store_limit_;
+    return key + bound > stop * (1 + tuning::kGoalSlack);
   }
 
   const TriangleMesh* mesh_;
@@ -396,6 +397,7 @@ class WindowPropagation {
   /// windows are not stored; the smallest key not stored caps what is final.
   double store_limit_ = kInfinity;
   std::optional<Vec3> goal_;  ///< the current solve's goal (ExactGeodesicOptions::goal)
+  double goal_limit_ = kInfinity;  ///< ExactGeodesicOptions::goal_limit
   double skipped_min_key_ = kInfinity;
   std::size_t nearest_wanted_ = 0;
   std::vector<std::uint32_t> nearest_targets_;

@@ -84,6 +84,9 @@ void WindowPropagation::check_solve_input(std::span<const GeodesicSource> source
   if (std::isnan(options.min_distance) || options.min_distance < 0) {
     throw InvalidInput(ErrorCode::BadRadius, "min_distance must be a non-negative number");
   }
+  if (std::isnan(options.goal_limit) || options.goal_limit < 0) {
+    throw InvalidInput(ErrorCode::BadRadius, "goal_limit must be a non-negative number");
+  }
   if (options.goal && !(std::isfinite(options.goal->x) && std::isfinite(options.goal->y) &&
                         std::isfinite(options.goal->z))) {
     throw InvalidInput(ErrorCode::BadGoal, "the goal position must be finite");
@@ -113,12 +116,16 @@ void WindowPropagation::solve(std::span<const GeodesicSource> sources,
 // lines): the stops share the loop's state, and the loop is the solver's hot path.
 void WindowPropagation::run(std::span<const GeodesicSource> sources, const GeodesicTargets& targets,
                             const Options& options) {
-  if (options.goal && targets.size() != 1) {
-    throw InvalidInput(ErrorCode::BadGoal, "a goal-directed solve needs exactly one target, got " +
-                                               std::to_string(targets.size()));
+  // Without a goal_limit the target's estimate is the goal-directed stop.
+  const bool no_stop = targets.empty() && options.goal_limit == kInfinity;
+  if (options.goal && (targets.size() > 1 || no_stop)) {
+    throw InvalidInput(ErrorCode::BadGoal,
+                       "a goal-directed solve needs one target or a goal_limit, got " +
+                           std::to_string(targets.size()) + " targets");
   }
   reset();
   goal_ = options.goal;
+  goal_limit_ = options.goal_limit;
   sources_.assign(sources.begin(), sources.end());
   // Targets are in place before seeding so that seeds already update their estimates.
   targets_ = targets.empty() ? nullptr : &targets;

@@ -59,6 +59,9 @@ struct QueryTuning {
   /// misjudges its neighbourhood. The radius depends on p alone. A near pair's disk around p
   /// still reaches as far as the solve would have without the limit. 0: no limit.
   std::uint32_t link_solve_vertices = tuning::kLinkSolveVertices;
+  /// A near pair's disks are directed at the pair's other point where the mesh's own lengths
+  /// allow it (solve_near). false: whole disks, as under another metric.
+  bool directed_near_disks = true;
 };
 
 struct HeapEntry {
@@ -145,7 +148,7 @@ class QueryEngine {
   double link_pair(const SurfacePoint& s, const SurfacePoint& t, QueryScratch::Impl& w,
                    bool& solved_s, bool& solved_t) const;
   PairAnswer answer(const SurfacePoint& s, const SurfacePoint& t, QueryScratch::Impl& w) const;
-  PairAnswer answer_near(const SurfacePoint& s, const SurfacePoint& t,
+  PairAnswer answer_near(const SurfacePoint& s, const SurfacePoint& t, double graph_distance,
                          QueryScratch::Impl& w) const;
   bool refines(const SurfacePoint& s, const SurfacePoint& t, double graph_distance) const;
   bool solves_exactly(double graph_distance) const;
@@ -160,7 +163,9 @@ class QueryEngine {
                        ExactGeodesicSolver& solver, const QueryInterrupt* interrupt) const;
   double sparseness(const SurfacePoint& p, double knee) const;
   void solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                  const QueryInterrupt* interrupt) const;
+                  const QueryInterrupt* interrupt, const SurfacePoint* toward = nullptr,
+                  double pair_bound = kInfinity) const;
+  bool near_disks_directed() const;
   void wide_links(const ExactGeodesicSolver& solver, QueryScratch::Impl& s, const Links& narrow,
                   Links& out) const;
   double join_disks(QueryScratch::Impl& s, const ExactGeodesicSolver& a, const Links& a_disk,

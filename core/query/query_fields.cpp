@@ -213,19 +213,31 @@ std::vector<double> QueryEngine::matrix(std::span<const SurfacePoint> sources,
       out[i * T + j] = best;
     }
     if (near.empty()) continue;
-    // Near pairs, as answer_near() does them: the source's near disk and wide links, and each
-    // target's, solved once per matrix.
-    solve_near(sources[i], w.solver_s, w.interrupt);
-    wide_links(w.solver_s, w, l, w.wide_s);
+    // Near pairs, as answer_near() does them. Undirected disks (near_disks_directed()) are
+    // shared: the source's by its near targets, a target's wide links by every source.
+    const bool directed = near_disks_directed();
+    if (!directed) {
+      solve_near(sources[i], w.solver_s, w.interrupt);
+      wide_links(w.solver_s, w, l, w.wide_s);
+    }
     w.source_position = sources[i].position(*mesh_);
     for (std::size_t j : near) {
-      if (solver_t_holds != j) {  // the join reads the target's solve too
-        solve_near(targets[j], w.solver_t, w.interrupt);
-        solver_t_holds = j;
-      }
-      if (!w.has_wide[j]) {
+      const double graph_distance = out[i * T + j];
+      if (directed) {
+        solve_near(sources[i], w.solver_s, w.interrupt, &targets[j], graph_distance);
+        wide_links(w.solver_s, w, l, w.wide_s);
+        solve_near(targets[j], w.solver_t, w.interrupt, &sources[i], graph_distance);
         wide_links(w.solver_t, w, w.many[S + j], w.wide[j]);
-        w.has_wide[j] = 1;
+        solver_t_holds = SIZE_MAX;
+      } else {
+        if (solver_t_holds != j) {  // the join reads the target's solve too
+          solve_near(targets[j], w.solver_t, w.interrupt);
+          solver_t_holds = j;
+        }
+        if (!w.has_wide[j]) {
+          wide_links(w.solver_t, w, w.many[S + j], w.wide[j]);
+          w.has_wide[j] = 1;
+        }
       }
       w.target_position = targets[j].position(*mesh_);
       out[i * T + j] = join_or_search(w, w.solver_s, w.wide_s, w.solver_t, w.wide[j]).distance;

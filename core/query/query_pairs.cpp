@@ -58,8 +58,15 @@ double QueryEngine::link_pair(const SurfacePoint& s, const SurfacePoint& t, Quer
 // farther, and p's face being large (its edges longer than the mean) buys it up to three times
 // that work, as such regions border on denser ones. A face or edge point's disk also reaches
 // as far as its link solve would without the vertex limit.
+// Directed at the pair's other point `toward` (near_disks_directed(); `pair_bound` the pair's
+// graph answer), the disk keeps only the points x with d(p, x) + |x toward| within that answer
+// (ExactGeodesicOptions::goal_limit). Every route shorter than the answer that the wide links
+// or the join could take stays inside it: the rest of the disk cannot improve the answer. That
+// part costs a fraction of the disk, so it reaches farther on a smaller budget
+// (kDirectedNearWork).
 void QueryEngine::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
-                             const QueryInterrupt* interrupt) const {
+                             const QueryInterrupt* interrupt, const SurfacePoint* toward,
+                             double pair_bound) const {
   const double scale = sparseness(p, tuning::kSparseFaceForWork);
   ExactGeodesicOptions bounded;
   bounded.min_distance = tuning::kNearRadius * link_radius_;
@@ -71,10 +78,21 @@ void QueryEngine::solve_near(const SurfacePoint& p, ExactGeodesicSolver& solver,
       p.kind != SurfacePoint::Kind::Vertex) {
     bounded.min_distance = std::max(bounded.min_distance, link_solve_radius(p).radius);
   }
-  bounded.max_windows_propagated =
-      static_cast<std::size_t>(scale * static_cast<double>(near_windows_));
+  double work = scale * static_cast<double>(near_windows_);
   bounded.interrupt = interrupt;
+  if (toward != nullptr) {
+    work *= tuning::kDirectedNearWork;
+    bounded.goal = toward->position(*mesh_);
+    bounded.goal_limit = pair_bound * (1 + tuning::kRelativeSlack);
+  }
+  bounded.max_windows_propagated = static_cast<std::size_t>(work);
   solver.solve(p, bounded);
+}
+
+// Whether near disks are directed at the pair's other point (solve_near): where straight lines
+// bound geodesics from below, under the mesh's own lengths.
+bool QueryEngine::near_disks_directed() const {
+  return tuning_.directed_near_disks && geometry_->lengths_are_chords();
 }
 
 // p's links (`narrow`, as link_pair() made them), improved through every vertex of its near
@@ -215,14 +233,20 @@ double QueryEngine::join_disks(QueryScratch::Impl& s, const ExactGeodesicSolver&
 
 // A near pair (see the file comment): the better of the join of both disks and a search from
 // their wide links (links_s / links_t hold the pair's links from link_pair(), and the pair's
-// positions are set, as answer() leaves them for its search). Leaves solver_s /
-// solver_t holding the solves from s / t and links_s / links_t the wide links, for paths.
+// positions are set, as answer() leaves them for its search; `graph_distance` is the search's
+// answer). Leaves solver_s / solver_t holding the solves from s / t and links_s / links_t the
+// wide links, for paths.
 PairAnswer QueryEngine::answer_near(const SurfacePoint& s, const SurfacePoint& t,
-                                    QueryScratch::Impl& w) const {
-  // Afresh for s, as for t (the same disk either way). The two solves are most of a near
-  // pair's time and independent: a server with an idle thread runs them at once.
-  const auto near_s = [&] { solve_near(s, w.solver_s, w.interrupt); };
-  const auto near_t = [&] { solve_near(t, w.solver_t, w.interrupt); };
+                                    double graph_distance, QueryScratch::Impl& w) const {
+  // Each disk afresh, the same whichever point is s. The two solves are most of a near pair's
+  // time and independent: a server with an idle thread runs them at once.
+  const bool directed = near_disks_directed();
+  const auto near_s = [&] {
+    solve_near(s, w.solver_s, w.interrupt, directed ? &t : nullptr, graph_distance);
+  };
+  const auto near_t = [&] {
+    solve_near(t, w.solver_t, w.interrupt, directed ? &s : nullptr, graph_distance);
+  };
   if (w.run_both) {
     w.run_both(near_s, near_t);
   } else {
@@ -288,7 +312,7 @@ PairAnswer QueryEngine::answer(const SurfacePoint& s, const SurfacePoint& t,
     a.from = PairAnswer::From::SolveS;
     return a;
   }
-  if (refines(s, t, a.distance)) return answer_near(s, t, w);
+  if (refines(s, t, a.distance)) return answer_near(s, t, a.distance, w);
   return a;
 }
 

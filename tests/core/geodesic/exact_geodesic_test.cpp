@@ -111,6 +111,15 @@ class Tally {
   std::vector<std::string> examples_;
 };
 
+/// The largest finite vertex distance of a solve.
+double farthest_vertex_distance(const ExactGeodesicSolver& solver, const TriangleMesh& mesh) {
+  double farthest = 0;
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+    if (std::isfinite(solver.distance(v))) farthest = std::max(farthest, solver.distance(v));
+  }
+  return farthest;
+}
+
 using Truth = std::function<double(const SurfacePoint&)>;
 
 /// Compares the solver's answers with `truth` at every vertex (distance(v), vertex_distances(),
@@ -1493,6 +1502,12 @@ TEST(ExactGeodesicInput, InvalidSourcesThrow) {
   EXPECT_EQ(reason_of([&] { solver.solve(from_0, two, directed); }), "BadGoal");
   directed.goal = Vec3{std::nan(""), 0, 0};
   EXPECT_EQ(reason_of([&] { solver.solve(from_0, std::span(two).first(1), directed); }), "BadGoal");
+  directed.goal = tm.mesh->position(5);
+  for (const double limit : {-1.0, std::nan("")}) {
+    directed.goal_limit = limit;
+    EXPECT_EQ(reason_of([&] { solver.solve(from_0, std::span(two).first(1), directed); }),
+              "BadRadius");
+  }
   // The solver still works after the failures.
   solver.solve(SurfacePoint::vertex(0));
   EXPECT_NEAR(solver.distance(1u), dist(tm.mesh->position(0), tm.mesh->position(1)), 1e-15);
@@ -2072,10 +2087,7 @@ TEST_P(ExactGeodesicRealMesh, GoalDirectedSolveIsExactAtItsTargetWithLessWork) {
   for (int trial = 0; trial < count(4, 2); ++trial) {
     const SurfacePoint s = random_face_point(mesh(), rng);
     full.solve(s);
-    double farthest = 0;
-    for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
-      if (std::isfinite(full.distance(v))) farthest = std::max(farthest, full.distance(v));
-    }
+    const double farthest = farthest_vertex_distance(full, mesh());
     std::vector<std::uint32_t> near;  // vertices within a third of the farthest distance
     for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
       if (full.distance(v) <= farthest / 3) near.push_back(v);
@@ -2126,6 +2138,69 @@ TEST_P(ExactGeodesicRealMesh, GoalDirectedSolveIsExactAtItsTargetWithLessWork) {
   }
   EXPECT_GT(plain_windows, 0u);
   EXPECT_LT(goal_windows, plain_windows);
+  EXPECT_TRUE(tally.result());
+}
+
+TEST_P(ExactGeodesicRealMesh, GoalLimitKeepsThePartOfTheDiskThatShorterPathsCross) {
+  // A disk out to a radius, directed at a goal with a bound on distance plus straight line
+  // (goal_limit, as a query's near disks take it; the goal's point a target or not): every
+  // point x of the disk with d(s, x) + |x goal| under that bound keeps its exact distance (the
+  // region holds the whole geodesic to such a point), the others are unreached or upper
+  // bounds, and the solve creates fewer windows than the whole disk does.
+  ExactGeodesicSolver full(mesh(), geometry()), disk(mesh(), geometry()),
+      directed(mesh(), geometry());
+  Rng rng(419);
+  Tally tally(std::string(GetParam().name) + " goal limit", scale());
+  std::size_t disk_windows = 0, directed_windows = 0, kept = 0, upper = 0;
+  for (int trial = 0; trial < count(6, 3); ++trial) {
+    const SurfacePoint s = random_face_point(mesh(), rng);
+    full.solve(s);
+    const double farthest = farthest_vertex_distance(full, mesh());
+    std::vector<std::uint32_t> candidates;  // goals between a sixth and a third of the way
+    for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
+      if (full.distance(v) >= farthest / 6 && full.distance(v) <= farthest / 3) {
+        candidates.push_back(v);
+      }
+    }
+    ASSERT_FALSE(candidates.empty());
+    const SurfacePoint goal =
+        SurfacePoint::vertex(candidates[rng.below(static_cast<std::uint32_t>(candidates.size()))]);
+    const Vec3 at = goal.position(mesh());
+    const double d = full.distance(goal);
+    ExactGeodesicSolver::Options bounded;
+    bounded.max_distance = 0.6 * d;
+    disk.solve(s, bounded);
+    bounded.goal = at;
+    bounded.goal_limit = 1.02 * d;
+    if (trial % 2 == 0) {
+      directed.solve(one(s), std::vector<SurfacePoint>{goal}, bounded);
+    } else {
+      directed.solve(s, bounded);  // with a goal_limit, no target is needed
+    }
+    disk_windows += disk.stats().windows_created;
+    directed_windows += directed.stats().windows_created;
+    const std::string ctx = "from " + s.to_string() + " towards " + goal.to_string();
+    for (std::uint32_t v = 0; v < mesh().num_vertices(); ++v) {
+      const double exact = full.distance(v), got = directed.distance(v);
+      const bool inside = exact <= bounded.max_distance * (1 - 1e-6) &&
+                          exact + norm(mesh().position(v) - at) <= bounded.goal_limit * (1 - 1e-6);
+      if (inside) {
+        ++kept;
+        tally.check(got, exact, ctx + ", vertex " + std::to_string(v));
+      } else if (std::isfinite(got)) {
+        ++upper;
+        if (!(got >= exact * (1 - 1e-9))) {
+          tally.fail(ctx + ", vertex " + std::to_string(v) + " below its distance: " + fmt(got) +
+                     " < " + fmt(exact));
+        }
+      }
+    }
+    EXPECT_TRUE(directed.settled_targets().empty()) << ctx << ": the goal lies beyond the radius";
+  }
+  EXPECT_GT(kept, 0u);
+  EXPECT_LT(directed_windows, disk_windows);
+  RecordProperty("vertices_kept", std::to_string(kept));
+  RecordProperty("upper_bounds", std::to_string(upper));
   EXPECT_TRUE(tally.result());
 }
 

@@ -590,6 +590,59 @@ TEST(GeodesicQuery, NearPairsAreRefined) {
   RecordProperty("worst_error_joined", fmt(worst_joined));
 }
 
+TEST(GeodesicQuery, DirectedNearDisksAnswerAsWellAsWholeOnes) {
+  // Near disks directed at the pair's other point keep the part of the disk that a path shorter
+  // than the graph's answer can cross, and reach farther there: over the refined pairs their
+  // answers are upper bounds, never worse than the paper's, and on average no worse than whole
+  // disks' (matrices take the same disks).
+  const QueryEnv& env = spot_env();
+  detail::QueryTuning whole_disks;
+  whole_disks.directed_near_disks = false;
+  const GeodesicQuery whole(env.mesh, env.geometry, env.graph.view(), graph_answer_options(),
+                            whole_disks);
+  const GeodesicQuery paper = unrefined(env.query);
+  QueryScratch scratch = whole.make_scratch(), paper_scratch = paper.make_scratch();
+  const double rho = env.query.link_radius();
+  double directed_error = 0, whole_error = 0;
+  int refined = 0;
+  std::vector<SurfacePoint> sources, targets;
+  std::vector<double> directed_answers;
+  for (std::size_t k = 0; k < spot_pairs().size(); ++k) {
+    const ExactPair& p = spot_pairs()[k];
+    const DistanceResult& r = spot_answers()[k];
+    const DistanceResult u = paper.distance(p.s, p.t, paper_scratch);
+    if (u.exact || u.distance > 4 * rho) continue;
+    const DistanceResult w = whole.distance(p.s, p.t, scratch);
+    const std::string what = pair_name(p.s, p.t) + ": directed " + fmt(r.distance) + ", whole " +
+                             fmt(w.distance) + ", paper " + fmt(u.distance) + ", exact " +
+                             fmt(p.exact);
+    EXPECT_GE(r.distance, p.exact * (1 - kBelowExact)) << what;
+    EXPECT_LE(r.distance, u.distance * (1 + kTight)) << what;
+    directed_error += (r.distance - p.exact) / p.exact;
+    whole_error += (w.distance - p.exact) / p.exact;
+    ++refined;
+    if (sources.size() < 12) {
+      sources.push_back(p.s);
+      targets.push_back(p.t);
+      directed_answers.push_back(r.distance);
+    }
+  }
+  ASSERT_GT(refined, 100);
+  EXPECT_LE(directed_error, whole_error)
+      << "mean relative errors over " << refined << " refined pairs: directed "
+      << fmt(directed_error / refined) << ", whole disks " << fmt(whole_error / refined);
+  RecordProperty("mean_error_directed", fmt(directed_error / refined));
+  RecordProperty("mean_error_whole", fmt(whole_error / refined));
+  // The matrix of these pairs' points holds the same answers on its diagonal.
+  QueryScratch matrix_scratch = env.query.make_scratch();
+  const std::vector<double> m = env.query.matrix(sources, targets, matrix_scratch);
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    EXPECT_TRUE(close_rel(m[i * targets.size() + i], directed_answers[i], 1e-12))
+        << pair_name(sources[i], targets[i]) << ": matrix " << fmt(m[i * targets.size() + i])
+        << ", distance " << fmt(directed_answers[i]);
+  }
+}
+
 TEST(GeodesicQuery, NearPairsJoinAcrossLongEdges) {
   // A flat strip whose only vertices are on its two long sides, cut into long slanted
   // triangles (rails 0.05 apart, diagonals 1.41 long, over three link radii). Two points near
