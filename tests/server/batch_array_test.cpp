@@ -11,7 +11,7 @@
 namespace geoprox::server::testing {
 namespace {
 
-constexpr const char* kQueryToken = "batch-array-query-token";
+constexpr const char* kBatchToken = "batch-array-query-token";
 
 class BatchArrayTest : public ::testing::Test {
  protected:
@@ -294,13 +294,13 @@ TEST_F(BatchArrayTest, RepliesBeyondMaxOutputBytesTogetherBecomeTooLarge) {
 TEST(BatchArrayAccess, BeforeServerAuthEachElementIsUnauthorizedAndServerAuthMustBeAlone) {
   TestData data;
   Config config = spot_config(data);
-  config.query_token = kQueryToken;
+  config.query_token = kBatchToken;
   RunningServer server(config);
   Client c(server.port());
   const json array = {
       request("health", "server.health"),
       request("distance", "geodesic.distance", distance_params("v:0", "v:1")),
-      request("auth", "server.auth", {{"token", kQueryToken}}),
+      request("auth", "server.auth", {{"token", kBatchToken}}),
       request("list", "mesh.list"),
       request("malformed", "mesh.info", json::object()),
       request(nullptr, "geodesic.distance", distance_params("v:0", "v:1")),
@@ -321,7 +321,7 @@ TEST(BatchArrayAccess, BeforeServerAuthEachElementIsUnauthorizedAndServerAuthMus
   // server.auth in the array did not authenticate the connection.
   EXPECT_EQ(c.error_reason("mesh.list"), "Unauthorized");
 
-  EXPECT_EQ(c.result("server.auth", {{"token", kQueryToken}}), json({{"authenticated", true}}));
+  EXPECT_EQ(c.result("server.auth", {{"token", kBatchToken}}), json({{"authenticated", true}}));
   ASSERT_TRUE(c.send_line(array.dump()));
   replies = by_id(c.read_json(30s));
   ASSERT_EQ(replies.size(), 6u);

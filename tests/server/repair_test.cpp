@@ -14,25 +14,25 @@
 namespace geoprox::server::testing {
 namespace {
 
-constexpr int kCells = 6;  ///< each grid of touching_grids_obj() is kCells x kCells unit squares
-constexpr int kGridVertices = (kCells + 1) * (kCells + 1);
+constexpr int kQuads = 6;  ///< each grid of touching_grids_obj() is kQuads x kQuads unit squares
+constexpr int kGridVertices = (kQuads + 1) * (kQuads + 1);
 constexpr int kFileVertices = 2 * kGridVertices - 1;  ///< the grids share vertex 0
-constexpr int kGridFaces = 2 * kCells * kCells;
+constexpr int kGridFaces = 2 * kQuads * kQuads;
 /// The copy of vertex 0 that repair appends for the second grid's fan.
 const std::string kCopyOfVertex0 = "v:" + std::to_string(kFileVertices);
 /// The second grid's first face, (0, 0) (1, 0) (1, 1) of that grid: its corner 0 is the copy.
 const std::string kCopyCorner = "f:" + std::to_string(kGridFaces) + ":1:0:0";
-/// The far corners: (kCells, kCells) of the first grid, (-kCells, -kCells) of the second.
+/// The far corners: (kQuads, kQuads) of the first grid, (-kQuads, -kQuads) of the second.
 const std::string kFarCornerA = "v:" + std::to_string(kGridVertices - 1);
 const std::string kFarCornerB = "v:" + std::to_string(kFileVertices - 1);
 
 /// Two flat grids that touch at one corner: grid A has vertex (i, j) at (i, j, 0) with id
-/// j (kCells + 1) + i; grid B is A turned half round about the origin, (-i, -j, 0), sharing
+/// j (kQuads + 1) + i; grid B is A turned half round about the origin, (-i, -j, 0), sharing
 /// vertex 0 and numbering the others after A's in the same order. Vertex 0 is where two fans
 /// meet (non-manifold); B's last face is turned round, and A's first face is listed again at the
 /// end. Repair splits vertex 0 (B's fan gets the copy), turns the face back and drops the copy.
 std::string touching_grids_obj() {
-  const int n = kCells;
+  const int n = kQuads;
   std::ostringstream obj;
   for (int sign : {1, -1}) {
     for (int j = 0; j <= n; ++j) {
@@ -183,7 +183,7 @@ TEST(RepairOnLoad, ConfigKeyServesANonManifoldMeshWithTheIdsOfTheRepairedFile) {
                 expected);
     }
     // Exact distances on the flat grids: straight lines, each grid on its own.
-    const double diagonal = kCells * std::sqrt(2.0);
+    const double diagonal = kQuads * std::sqrt(2.0);
     EXPECT_NEAR(c.result("geodesic.distance",
                          distance_params("grids", "v:0", kFarCornerA, true))["distance"]
                     .get<double>(),
