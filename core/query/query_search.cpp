@@ -135,9 +135,12 @@ double QueryEngine::search_bidirectional(QueryScratch::Impl& s, const Links& fro
         to_t = norm(x - s.target_position);
         from_s_bound = norm(x - s.source_position);
       }
+      // A landmark that does not reach i reaches none of i's graph component, whose edges
+      // then see no bound from it: the bounds stay consistent along every edge.
       const double* row = landmark_distance_.data() + static_cast<std::size_t>(i) * landmarks_;
       for (std::uint32_t a = 0; a < s.num_active_landmarks; ++a) {
         const std::uint32_t k = s.active_landmarks[a];
+        if (row[k] == kInfinity) continue;
         to_t = std::max(to_t, std::abs(row[k] - s.landmark_t[k]));
         from_s_bound = std::max(from_s_bound, std::abs(row[k] - s.landmark_s[k]));
       }
