@@ -193,6 +193,10 @@ inline constexpr double kNearReach = 3;
 /// this share of that average work: it keeps only the part of the disk that a path shorter than
 /// the pair's graph answer can cross, and so reaches farther on less work.
 inline constexpr double kDirectedNearWork = 0.5;
+/// Landmarks of the graph search's potentials (QueryEngine::search_bidirectional): samples
+/// whose graph distances to every sample are computed when the engine is made. Each bounds the
+/// remaining distance from below by the triangle inequality.
+inline constexpr std::uint32_t kSearchLandmarks = 16;
 /// Samples whose disks out to kNearRadius measure that average work (taken at even steps of
 /// the samples' order: farthest-point sampling starts at the extremities).
 inline constexpr std::uint32_t kNearProbeSamples = 15;

@@ -15,7 +15,10 @@
 // answer and directed at t. A distance field is exact out to a radius around each source, and
 // every sample in that disk links the source to the graph; beyond it a vertex takes the best of
 // its cover row. The rule depends on each point alone and on the graph's answer, which is
-// symmetric: answers are symmetric. docs/queries.md describes all of this with its figures.
+// symmetric: answers are symmetric. The graph is searched from both ends at once, each front
+// steered towards the other by lower bounds of the distance left: straight lines, and the
+// triangle inequality over graph distances from a few landmark samples computed when the query
+// object is made. docs/queries.md describes all of this with its figures.
 //
 // Thread safety: a GeodesicQuery is immutable after construction and may be shared by any
 // number of threads; each thread passes its own QueryScratch, which holds every buffer a query
@@ -148,6 +151,8 @@ class GeodesicQuery {
 
   /// All three must outlive the query object; the graph is usually a view into a mapped file.
   /// Throws InvalidInput (GraphMismatch) if the graph was built for another vertex count.
+  /// Makes the search's landmark distances: a Dijkstra search of the graph per landmark, and
+  /// tuning::kSearchLandmarks doubles per sample.
   GeodesicQuery(const TriangleMesh& mesh, const IntrinsicGeometry& geometry,
                 const ProximityGraphView& graph, const Options& options = {});
   /// Over a graph built on a refinement of `mesh` (ProximityGraph::refined, or a version-3

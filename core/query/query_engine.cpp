@@ -72,6 +72,63 @@ QueryEngine::QueryEngine(const TriangleMesh& mesh, const IntrinsicGeometry& geom
   for (std::uint32_t i = 0; i < graph.num_samples; ++i) {
     sample_positions_.push_back(mesh.position(graph.sample_vertex[i]));
   }
+  choose_landmarks();
+}
+
+// The bidirectional search's landmarks, farthest-point on the graph: each next one is the
+// sample farthest from those chosen (a sample no landmark reaches comes first: other components
+// get theirs), starting from the sample farthest from sample 0. Landmarks on the graph's
+// periphery bound the most pairs well. One Dijkstra search from each.
+void QueryEngine::choose_landmarks() {
+  const std::uint32_t n = graph_.num_samples;
+  if (tuning_.search != GraphSearch::Bidirectional) return;
+  landmarks_ = std::min({n, tuning_.search_landmarks, tuning::kSearchLandmarks});
+  if (landmarks_ == 0) return;
+  landmark_distance_.assign(static_cast<std::size_t>(n) * landmarks_, kInfinity);
+  std::vector<double> distance(n), nearest_landmark(n, kInfinity);
+  std::vector<std::pair<double, std::uint32_t>> heap;
+  auto dijkstra = [&](std::uint32_t from) {
+    std::fill(distance.begin(), distance.end(), kInfinity);
+    distance[from] = 0;
+    heap.assign(1, {0.0, from});
+    const auto later = [](const auto& a, const auto& b) { return a.first > b.first; };
+    while (!heap.empty()) {
+      std::pop_heap(heap.begin(), heap.end(), later);
+      const auto [d, i] = heap.back();
+      heap.pop_back();
+      if (d > distance[i]) continue;
+      for (std::uint32_t e = graph_.edge_offsets[i]; e < graph_.edge_offsets[i + 1]; ++e) {
+        const std::uint32_t j = graph_.edge_target[e];
+        const double through = d + graph_.edge_distance[e];
+        if (through < distance[j]) {
+          distance[j] = through;
+          heap.emplace_back(through, j);
+          std::push_heap(heap.begin(), heap.end(), later);
+        }
+      }
+    }
+  };
+  auto farthest = [&](const std::vector<double>& from) {
+    std::uint32_t best = 0;
+    for (std::uint32_t i = 1; i < n; ++i) {
+      if (from[i] > from[best]) best = i;
+    }
+    return best;
+  };
+  dijkstra(0);
+  // Unreachable samples count as nearer than every reached one here: start in sample 0's part.
+  for (double& d : distance) {
+    if (d == kInfinity) d = -1;
+  }
+  std::uint32_t next = farthest(distance);
+  for (std::uint32_t k = 0; k < landmarks_; ++k) {
+    dijkstra(next);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      landmark_distance_[static_cast<std::size_t>(i) * landmarks_ + k] = distance[i];
+      nearest_landmark[i] = std::min(nearest_landmark[i], distance[i]);
+    }
+    next = farthest(nearest_landmark);
+  }
 }
 
 QueryScratch QueryEngine::make_scratch() const {

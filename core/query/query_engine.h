@@ -62,6 +62,9 @@ struct QueryTuning {
   /// A near pair's disks are directed at the pair's other point where the mesh's own lengths
   /// allow it (solve_near). false: whole disks, as under another metric.
   bool directed_near_disks = true;
+  /// Landmarks of the bidirectional search's potentials (search_bidirectional), at most
+  /// tuning::kSearchLandmarks. 0: straight-line potentials alone (none under another metric).
+  std::uint32_t search_landmarks = tuning::kSearchLandmarks;
 };
 
 struct HeapEntry {
@@ -216,6 +219,8 @@ class QueryEngine {
                          double best, std::uint32_t& meet, std::uint32_t& settled) const;
   void graph_distances_from(QueryScratch::Impl& s, std::span<const Links* const> sources,
                             double max_distance) const;
+  void choose_landmarks();
+  void prepare_landmarks(QueryScratch::Impl& s, const Links& from_s, const Links& from_t) const;
   void append_segment(QueryScratch::Impl& s, std::uint32_t from_sample, std::uint32_t to_sample,
                       std::uint32_t edge, PathResult& out) const;
 
@@ -230,6 +235,10 @@ class QueryEngine {
   /// Every sample, prepared once for the solves to the nearest ones (shared by all scratches).
   std::optional<GeodesicTargets> sample_targets_;
   std::vector<Vec3> sample_positions_;
+  /// Graph distance from landmark k to sample i at [i * landmarks_ + k] (kInfinity where
+  /// unreachable): the bidirectional search's potentials (choose_landmarks).
+  std::vector<double> landmark_distance_;
+  std::uint32_t landmarks_ = 0;
   double bbox_diagonal_ = 0;
   std::size_t near_windows_ = 0;  ///< a near disk's budget, windows propagated (solve_near)
   double mean_edge_length_ = 0;  ///< of the intrinsic edges (see sparseness)
@@ -308,6 +317,11 @@ struct QueryScratch::Impl {
   const QueryInterrupt* interrupt = nullptr;
   QueryScratch::RunBoth run_both;  ///< empty: one after the other
   Vec3 source_position, target_position;  ///< of the current point-to-point query
+  /// The search's landmark distances of s and t (search_bidirectional), and which landmarks
+  /// reach both.
+  double landmark_s[tuning::kSearchLandmarks], landmark_t[tuning::kSearchLandmarks];
+  std::uint32_t active_landmarks[tuning::kSearchLandmarks];
+  std::uint32_t num_active_landmarks = 0;
   std::uint32_t pops = 0;  ///< graph-search pops, for polling the interrupt
   /// Linking through covers: slot of sample i in the links being assembled, valid when
   /// link_stamp[i] == link_generation.

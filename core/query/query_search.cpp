@@ -115,19 +115,36 @@ double QueryEngine::search_bidirectional(QueryScratch::Impl& s, const Links& fro
                                          std::uint32_t& settled) const {
   Meeting m{best, meet};
   auto check = [&](std::uint32_t i) { m.check(s, i); };
-  // Goal direction (bidirectional A* with average potentials, Ikeda et al. 1994): when the
-  // lengths are the embedding's, the straight-line distance is a lower bound of every graph
-  // edge, so p(v) = (|v t| - |v s|) / 2 keeps every reduced edge length non-negative for the
-  // forward front (keys label + p) and the backward one (keys label - p), and the usual stop
-  // rule (top keys summing to the best meeting) stays exact. Otherwise p = 0: plain Dijkstra.
+  // Goal direction (bidirectional A* with average potentials, Ikeda et al. 1994): p(v) =
+  // (b_t(v) - b_s(v)) / 2, where b_t and b_s bound the remaining distances to t and from s from
+  // below. Every such bound here changes along a graph edge by no more than its length, so the
+  // reduced edge lengths stay non-negative for the forward front (keys label + p) and the
+  // backward one (keys label - p), and the usual stop rule (top keys summing to the best
+  // meeting) stays exact. The bounds: the straight-line distance when the lengths are the
+  // embedding's, and the landmarks' |D_k(v) - D_k(t)| (ALT, Goldberg and Harrelson 2005: D_k
+  // the graph distances from landmark k, D_k(t) through t's links).
   const bool directed = geometry_->lengths_are_chords();
+  prepare_landmarks(s, from_s, from_t);
   auto potential = [&](std::uint32_t i) {
-    if (!directed) return 0.0;
     // Callers touch i first (seed_side, settle_and_relax), which resets the cached value.
-    double& p = s.potential[i];  // two square roots, once per sample and search
+    double& p = s.potential[i];  // once per sample and search
     if (p == QueryScratch::Impl::kNoPotential) {
-      const Vec3& x = sample_positions_[i];
-      p = 0.5 * (norm(x - s.target_position) - norm(x - s.source_position));
+      double to_t = 0, from_s_bound = 0;
+      if (directed) {
+        const Vec3& x = sample_positions_[i];
+        to_t = norm(x - s.target_position);
+        from_s_bound = norm(x - s.source_position);
+      }
+      // A landmark that does not reach i reaches none of i's graph component, whose edges
+      // then see no bound from it: the bounds stay consistent along every edge.
+      const double* row = landmark_distance_.data() + static_cast<std::size_t>(i) * landmarks_;
+      for (std::uint32_t a = 0; a < s.num_active_landmarks; ++a) {
+        const std::uint32_t k = s.active_landmarks[a];
+        if (row[k] == kInfinity) continue;
+        to_t = std::max(to_t, std::abs(row[k] - s.landmark_t[k]));
+        from_s_bound = std::max(from_s_bound, std::abs(row[k] - s.landmark_s[k]));
+      }
+      p = 0.5 * (to_t - from_s_bound);
     }
     return p;
   };
@@ -149,6 +166,27 @@ double QueryEngine::search_bidirectional(QueryScratch::Impl& s, const Links& fro
     if (fresh) ++settled;
   }
   return m.best;
+}
+
+// The landmark distances of s and t through their links, and the landmarks that reach both
+// (a landmark in another component bounds nothing).
+void QueryEngine::prepare_landmarks(QueryScratch::Impl& s, const Links& from_s,
+                                    const Links& from_t) const {
+  const auto through = [&](const Links& links, double* out) {
+    std::fill(out, out + landmarks_, kInfinity);
+    for (const auto& [i, d] : links.samples) {
+      const double* row = landmark_distance_.data() + static_cast<std::size_t>(i) * landmarks_;
+      for (std::uint32_t k = 0; k < landmarks_; ++k) out[k] = std::min(out[k], row[k] + d);
+    }
+  };
+  through(from_s, s.landmark_s);
+  through(from_t, s.landmark_t);
+  s.num_active_landmarks = 0;
+  for (std::uint32_t k = 0; k < landmarks_; ++k) {
+    if (s.landmark_s[k] < kInfinity && s.landmark_t[k] < kInfinity) {
+      s.active_landmarks[s.num_active_landmarks++] = k;
+    }
+  }
 }
 
 double QueryEngine::search_meet_in_the_middle(QueryScratch::Impl& s, const Links& from_s,

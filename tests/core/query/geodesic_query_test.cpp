@@ -1127,6 +1127,79 @@ void check_path(const GeodesicQuery& query, const SurfacePoint& s, const Surface
   }
 }
 
+// Landmark potentials (QueryTuning::search_landmarks) only steer the bidirectional search:
+// the same answers as plain Dijkstra with fewer samples settled, under the mesh's own lengths
+// (beside straight-line potentials), under another metric (where they are the only ones) and
+// on a graph of two components (each with its own landmarks).
+TEST(GeodesicQuery, LandmarksSettleFewerSamplesWithTheSameAnswers) {
+  const QueryEnv& spot = spot_env();
+  std::vector<double> doubled = spot.geometry.edge_lengths();
+  for (double& l : doubled) l *= 2;
+  const IntrinsicGeometry metric(spot.mesh, doubled);
+  ASSERT_FALSE(metric.lengths_are_chords());
+  const QueryEnv& two = two_component_env();
+  struct Case {
+    const char* name;
+    const QueryEnv& env;
+    const IntrinsicGeometry& geometry;
+    double fewer;  // settled with landmarks / without, at most
+  };
+  for (const Case& c : {Case{"spot", spot, spot.geometry, 0.5},
+                        Case{"spot under a metric", spot, metric, 0.3},
+                        Case{"two components", two, two.geometry, 0.7}}) {
+    SCOPED_TRACE(c.name);
+    detail::QueryTuning tuning;
+    const GeodesicQuery landmarks(c.env.mesh, c.geometry, c.env.graph.view(),
+                                  graph_answer_options(), tuning);
+    tuning.search_landmarks = 0;
+    const GeodesicQuery without(c.env.mesh, c.geometry, c.env.graph.view(),
+                                graph_answer_options(), tuning);
+    tuning.search = GraphSearch::Dijkstra;
+    const GeodesicQuery dijkstra(c.env.mesh, c.geometry, c.env.graph.view(),
+                                 graph_answer_options(), tuning);
+    QueryScratch sl = landmarks.make_scratch(), sw = without.make_scratch(),
+                 sd = dijkstra.make_scratch();
+    Rng rng(777);
+    const PointSampler sampler(c.env.mesh, c.env.geometry);
+    std::uint64_t settled_landmarks = 0, settled_without = 0;
+    int searched = 0, unreachable = 0, failures = 0;
+    for (std::uint32_t k = 0; k < 400; ++k) {
+      const SurfacePoint s = sampler.any(rng, k), t = sampler.any(rng, k / 3);
+      DistanceResult l, w, d;
+      try {
+        d = dijkstra.distance(s, t, sd);
+      } catch (const Unreachable&) {
+        ++unreachable;
+        EXPECT_THROW(landmarks.distance(s, t, sl), Unreachable) << pair_name(s, t);
+        continue;
+      }
+      l = landmarks.distance(s, t, sl);
+      w = without.distance(s, t, sw);
+      if (!close_rel(l.distance, d.distance, kTight) ||
+          !close_rel(w.distance, d.distance, kTight)) {
+        if (++failures <= 10) {
+          ADD_FAILURE() << pair_name(s, t) << ": landmarks " << fmt(l.distance) << ", without "
+                        << fmt(w.distance) << ", dijkstra " << fmt(d.distance);
+        }
+      }
+      if (!d.exact) {
+        ++searched;
+        settled_landmarks += l.samples_settled;
+        settled_without += w.samples_settled;
+      }
+    }
+    EXPECT_EQ(failures, 0);
+    EXPECT_GT(searched, 100);
+    if (&c.env == &two) {
+      EXPECT_GT(unreachable, 50);
+    }
+    EXPECT_LT(static_cast<double>(settled_landmarks),
+              c.fewer * static_cast<double>(settled_without))
+        << settled_landmarks << " samples settled with landmarks, " << settled_without
+        << " without";
+  }
+}
+
 TEST(GeodesicQuery, PathsStartEndAndLengthMatch) {
   const QueryEnv& env = spot_env();
   QueryScratch scratch = env.query.make_scratch();
