@@ -21,6 +21,10 @@ using protocol::HttpFormat;
 using protocol::HttpRoute;
 using protocol::ProtocolError;
 
+/// Which array of a result a binary response carries. Not in the anonymous namespace:
+/// HttpHandler::Shape, a class with external linkage, holds one.
+enum class ArrayChoice : std::uint8_t { Distances, NearestSource, Positions, Triangles };
+
 namespace {
 
 /// Bodies at least this large are gzipped for clients that accept it (and at most the largest
@@ -89,9 +93,6 @@ bool is_json_body(const HttpRequest& request) {
   const std::string_view type = header(request, http::field::content_type);
   return type.empty() || iequals_prefix(type, kJsonType);
 }
-
-/// Which array of a result a binary response carries.
-enum class ArrayChoice : std::uint8_t { Distances, NearestSource, Positions, Triangles };
 
 ArrayChoice array_choice(HttpRoute::Kind kind, std::string_view name) {
   if (kind == HttpRoute::Kind::Geometry) {

@@ -86,11 +86,11 @@ struct FieldsScope {
 
 }  // namespace
 
-void configure_logging(const std::string& level, bool json) {
+void configure_logging(const std::string& level, bool json_output) {
   spdlog::drop("geoproxd");
   auto logger = spdlog::stderr_logger_mt("geoproxd");
-  json_lines = json;
-  if (json) {
+  json_lines = json_output;
+  if (json_output) {
     logger->set_formatter(std::make_unique<JsonFormatter>());
   } else {
     logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%-5l%$ [%t] %v");

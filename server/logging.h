@@ -13,7 +13,7 @@ namespace geoprox::server {
 
 /// Installs the default logger. `level` must be valid (see is_valid_log_level). Call it before
 /// other threads log.
-void configure_logging(const std::string& level, bool json);
+void configure_logging(const std::string& level, bool json_output);
 
 /// Logs an event with fields. A JSON line carries them as members after "msg", in their order
 /// and with their types (null for a field that does not apply); a text line is `message` then
