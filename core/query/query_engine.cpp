@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "core/base/errors.h"
+#include "core/base/quaternary_heap.h"
 #include "core/query/query_engine.h"
 
 namespace geoprox::detail {
@@ -86,24 +87,21 @@ void QueryEngine::choose_landmarks() {
   if (landmarks_ == 0) return;
   landmark_distance_.assign(static_cast<std::size_t>(n) * landmarks_, kInfinity);
   std::vector<double> distance(n), nearest_landmark(n, kInfinity);
-  std::vector<std::pair<double, std::uint32_t>> heap;
+  std::vector<HeapEntry> heap;
   auto dijkstra = [&](std::uint32_t from) {
     std::fill(distance.begin(), distance.end(), kInfinity);
     distance[from] = 0;
-    heap.assign(1, {0.0, from});
-    const auto later = [](const auto& a, const auto& b) { return a.first > b.first; };
+    heap.assign(1, HeapEntry{0.0, from, 0});
     while (!heap.empty()) {
-      std::pop_heap(heap.begin(), heap.end(), later);
-      const auto [d, i] = heap.back();
-      heap.pop_back();
-      if (d > distance[i]) continue;
-      for (std::uint32_t e = graph_.edge_offsets[i]; e < graph_.edge_offsets[i + 1]; ++e) {
+      const HeapEntry top = quaternary_heap_pop(heap);
+      if (top.key > distance[top.node]) continue;
+      for (std::uint32_t e = graph_.edge_offsets[top.node]; e < graph_.edge_offsets[top.node + 1];
+           ++e) {
         const std::uint32_t j = graph_.edge_target[e];
-        const double through = d + graph_.edge_distance[e];
+        const double through = top.key + graph_.edge_distance[e];
         if (through < distance[j]) {
           distance[j] = through;
-          heap.emplace_back(through, j);
-          std::push_heap(heap.begin(), heap.end(), later);
+          quaternary_heap_push(heap, HeapEntry{through, j, 0});
         }
       }
     }
