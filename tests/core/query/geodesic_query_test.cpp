@@ -1165,7 +1165,7 @@ TEST(GeodesicQuery, LandmarksSettleFewerSamplesWithTheSameAnswers) {
     int searched = 0, unreachable = 0, failures = 0;
     for (std::uint32_t k = 0; k < 400; ++k) {
       const SurfacePoint s = sampler.any(rng, k), t = sampler.any(rng, k / 3);
-      DistanceResult l, w, d;
+      DistanceResult d;
       try {
         d = dijkstra.distance(s, t, sd);
       } catch (const Unreachable&) {
@@ -1173,8 +1173,8 @@ TEST(GeodesicQuery, LandmarksSettleFewerSamplesWithTheSameAnswers) {
         EXPECT_THROW(landmarks.distance(s, t, sl), Unreachable) << pair_name(s, t);
         continue;
       }
-      l = landmarks.distance(s, t, sl);
-      w = without.distance(s, t, sw);
+      const DistanceResult l = landmarks.distance(s, t, sl);
+      const DistanceResult w = without.distance(s, t, sw);
       if (!close_rel(l.distance, d.distance, kTight) ||
           !close_rel(w.distance, d.distance, kTight)) {
         if (++failures <= 10) {
