@@ -5,7 +5,9 @@
 #include "core/graph/graph_file.h"
 
 #include <gtest/gtest.h>
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -283,6 +285,46 @@ TEST(GraphFile, WritingIsDeterministic) {
   write_graph_file(dir.file("a"), *fx.cube.mesh, *fx.cube.geometry, fx.graph);
   write_graph_file(dir.file("b"), *fx.cube.mesh, *fx.cube.geometry, fx.graph);
   EXPECT_EQ(read_bytes(dir.file("a")), read_bytes(dir.file("b")));
+}
+
+// Pages of `path` in the page cache (mincore over a mapping of the whole file).
+long resident_pages(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("cannot open " + path);
+  const auto size = static_cast<std::size_t>(fs::file_size(path));
+  void* map = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);
+  ::close(fd);
+  if (map == MAP_FAILED) throw std::runtime_error("cannot map " + path);
+  const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+  std::vector<unsigned char> resident((size + page - 1) / page);
+  const int status = ::mincore(map, size, resident.data());
+  ::munmap(map, size);
+  if (status != 0) throw std::runtime_error("mincore failed on " + path);
+  return std::count_if(resident.begin(), resident.end(), [](unsigned char r) { return r & 1; });
+}
+
+// The writer drops the file's pages from the page cache once they are durable, so that the
+// daemon serving a graph it has just built reads it back through readahead (graph_file.md).
+TEST(GraphFile, WrittenPagesLeaveThePageCache) {
+  Fixture fx;
+  TempDir dir;
+  // Where the file system keeps such pages anyway (tmpfs: they are the file), there is nothing
+  // to test: a plain file written, synced and advised the same way tells.
+  const std::string probe = dir.file("probe");
+  write_bytes(probe, std::vector<unsigned char>(64 * 1024, 7));
+  {
+    const int fd = ::open(probe.c_str(), O_RDONLY | O_CLOEXEC);
+    ASSERT_GE(fd, 0);
+    ::fsync(fd);
+    ::posix_fadvise(fd, 0, 0, POSIX_FADV_DONTNEED);
+    ::close(fd);
+  }
+  if (resident_pages(probe) > 0) {
+    GTEST_SKIP() << "this file system keeps a synced file's pages cached (tmpfs, some FUSE)";
+  }
+  const std::string path = dir.file("g.geoprox");
+  write_graph_file(path, *fx.cube.mesh, *fx.cube.geometry, fx.graph);
+  EXPECT_EQ(resident_pages(path), 0);
 }
 
 TEST(GraphFile, MakeMeshRebuildsTheSameMesh) {
