@@ -76,6 +76,22 @@ void write_bytes(const std::string& path, const std::vector<unsigned char>& byte
             static_cast<std::streamsize>(bytes.size()));
 }
 
+// Pages of `path` in the page cache (mincore over a mapping of the whole file).
+long resident_pages(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("cannot open " + path);
+  const auto size = static_cast<std::size_t>(fs::file_size(path));
+  void* map = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);
+  ::close(fd);
+  if (map == MAP_FAILED) throw std::runtime_error("cannot map " + path);
+  const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+  std::vector<unsigned char> resident((size + page - 1) / page);
+  const int status = ::mincore(map, size, resident.data());
+  ::munmap(map, size);
+  if (status != 0) throw std::runtime_error("mincore failed on " + path);
+  return std::count_if(resident.begin(), resident.end(), [](unsigned char r) { return r & 1; });
+}
+
 ProximityGraphView view_of(const ProximityGraph& g) {
   ProximityGraphView v;
   v.num_vertices = g.num_vertices;
@@ -285,22 +301,6 @@ TEST(GraphFile, WritingIsDeterministic) {
   write_graph_file(dir.file("a"), *fx.cube.mesh, *fx.cube.geometry, fx.graph);
   write_graph_file(dir.file("b"), *fx.cube.mesh, *fx.cube.geometry, fx.graph);
   EXPECT_EQ(read_bytes(dir.file("a")), read_bytes(dir.file("b")));
-}
-
-// Pages of `path` in the page cache (mincore over a mapping of the whole file).
-long resident_pages(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw std::runtime_error("cannot open " + path);
-  const auto size = static_cast<std::size_t>(fs::file_size(path));
-  void* map = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);
-  ::close(fd);
-  if (map == MAP_FAILED) throw std::runtime_error("cannot map " + path);
-  const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
-  std::vector<unsigned char> resident((size + page - 1) / page);
-  const int status = ::mincore(map, size, resident.data());
-  ::munmap(map, size);
-  if (status != 0) throw std::runtime_error("mincore failed on " + path);
-  return std::count_if(resident.begin(), resident.end(), [](unsigned char r) { return r & 1; });
 }
 
 // The writer drops the file's pages from the page cache once they are durable, so that the
